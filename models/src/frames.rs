@@ -1,0 +1,1 @@
+//! OSI frame transforms (global -> host vehicle -> sensor). To be written.

@@ -1,0 +1,1 @@
+//! osiris: co-simulation master, scenario sources, traces, FMU packaging and benchmarks.
