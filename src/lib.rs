@@ -1,1 +1,15 @@
 //! osiris: co-simulation master, scenario sources, traces, FMU packaging and benchmarks.
+//!
+//! * [`master`]: a small FMI 2.0 co-simulation master for OSMP sensor FMUs (libloading).
+//! * [`trace`]: OSI `.osi` trace files (4-byte little-endian length prefix per message).
+//! * [`scenario`]: the built-in scenario generator (JSON-configurable) and trace scenario sources.
+//! * [`package`]: builds `camera.fmu`, `radar.fmu`, `lidar.fmu`.
+//! * [`bench`]: `osiris bench <what>` figures.
+//! * [`cli`]: the `osiris` command line.
+
+pub mod bench;
+pub mod cli;
+pub mod master;
+pub mod package;
+pub mod scenario;
+pub mod trace;
