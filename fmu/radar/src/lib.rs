@@ -1,1 +1,4 @@
-//! The radar FMU binary: the shared shell's 34 FMI 2.0 exports over the radar sensor. To be written.
+//! The radar FMU binary (`osiris_radar.so`): the shared shell's 34 FMI 2.0 co-simulation exports over
+//! the radar sensor. All logic lives in `osiris_fmu`; see `modelDescription/radar.xml`.
+
+osiris_fmu::export_fmi2!(&osiris_fmu::sensors::radar::DESCRIPTOR);

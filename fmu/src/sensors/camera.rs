@@ -1,0 +1,17 @@
+//! The camera FMU (`osiris_camera`).
+
+use osiris_models::SensorKind;
+
+use crate::descriptor::FmuDescriptor;
+
+/// Descriptor of the camera FMU: modelIdentifier `osiris_camera`, default step = the built-in
+/// configuration's `update_cycle_s`.
+pub static DESCRIPTOR: FmuDescriptor = FmuDescriptor::new(
+    SensorKind::Camera,
+    "osiris camera",
+    "osiris_camera",
+    "osiris camera sensor model (OSI 3.8.0 SensorView in, SensorData out, OSMP 1.6.0; raw perception \
+     output in PerceptionDataOut). This version runs the ideal object-level model only: ground-truth \
+     objects inside the field of view and range, occlusion by other objects, in the sensor frame. \
+     The physics-based camera model has not landed yet; mode=physical fails at initialization.",
+);
