@@ -249,7 +249,7 @@ struct SensorStats {
     feature_detections_total: usize,
     distinct_ground_truth_ids: Vec<u64>,
     closest_object_m: Option<f64>,
-    mean_step_ms: f64,
+    wall_ms_per_sensor_step: f64,
 }
 
 /// One sensor of a run: an FMU instance fed by one SensorView stream.
@@ -430,7 +430,8 @@ fn run(args: RunArgs) -> Result<()> {
         w.flush()?;
     }
     for (i, s) in stats.iter_mut().enumerate() {
-        s.mean_step_ms = 1e3 * elapsed_s / (summary.frames.max(1) * run_sensors.len()) as f64;
+        s.wall_ms_per_sensor_step =
+            1e3 * elapsed_s / (summary.frames.max(1) * run_sensors.len()) as f64;
         debug_assert_eq!(summary.sensor_data_frames[i], s.frames_with_sensor_data);
     }
     for sensor in &mut sensors {
