@@ -1,0 +1,20 @@
+//! The environment model: what the world is made of, and how it is lit and weathered.
+//!
+//! * [`mesh`]: triangle meshes with per-triangle parts (each part has a material name).
+//! * [`material`]: the materials database (`models/resources/materials.json`): visible spectral
+//!   reflectance, NIR BRDF at 905/1550 nm, 76–81 GHz permittivity (Fresnel), transmission, wet variants.
+//! * [`assets`]: built-in parametric assets (`osiris:<asset>?<param>=<value>&...`) and user meshes.
+//! * [`scene`]: OSI GroundTruth → scene (road, lane markings, object instances).
+//! * [`sun`]: sun position (NREL SPA).
+//! * [`sky`]: clear-sky direct and diffuse spectral irradiance (SPCTRAL2).
+//! * [`weather`]: rain and fog extinction per band, wet road.
+//! * [`lamps`]: vehicle lamps with light-distribution tables.
+
+pub mod assets;
+pub mod lamps;
+pub mod material;
+pub mod mesh;
+pub mod scene;
+pub mod sky;
+pub mod sun;
+pub mod weather;
