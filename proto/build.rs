@@ -16,7 +16,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for f in &files {
         println!("cargo:rerun-if-changed={}", f.display());
     }
-    let fds = protox::compile(&files, [&root])?;
+    // `protox::compile`, but also keeping the encoded FileDescriptorSet (with imports and extension
+    // options such as `osi3.current_interface_version`) for `osiris_proto::FILE_DESCRIPTOR_SET`.
+    let mut compiler = protox::Compiler::new([&root])?;
+    compiler
+        .include_source_info(true)
+        .include_imports(true)
+        .open_files(&files)?;
+    let out_dir = PathBuf::from(std::env::var("OUT_DIR")?);
+    std::fs::write(
+        out_dir.join("file_descriptor_set.bin"),
+        compiler.encode_file_descriptor_set(),
+    )?;
+    let fds = compiler.file_descriptor_set();
     let mut config = prost_build::Config::new();
     config.enable_type_names();
     config.compile_fds(fds)?;

@@ -23,6 +23,11 @@ pub use osiris::perception;
 
 pub use prost::Message;
 
+/// Encoded `google.protobuf.FileDescriptorSet` of all the .proto files above (imports included), as
+/// compiled by `protox`: for reflection (`prost-reflect`) and the descriptor diff against `osi-python`.
+pub const FILE_DESCRIPTOR_SET: &[u8] =
+    include_bytes!(concat!(env!("OUT_DIR"), "/file_descriptor_set.bin"));
+
 /// OSI version every top-level message osiris writes carries.
 pub const OSI_VERSION: (u32, u32, u32) = (3, 8, 0);
 
