@@ -49,7 +49,10 @@ impl Effects {
     }
 
     /// All `known` effects at their defaults, then `switches` applied; unknown names are errors.
-    pub fn with_switches(known: &[EffectInfo], switches: &EffectSwitches) -> Result<Effects, EffectError> {
+    pub fn with_switches(
+        known: &[EffectInfo],
+        switches: &EffectSwitches,
+    ) -> Result<Effects, EffectError> {
         let mut e = Effects::new(known);
         for (name, &value) in switches {
             e.set(name, value)?;
@@ -74,7 +77,10 @@ impl Effects {
     /// Whether an effect is on. Panics on a name that was never declared: that is a programming
     /// error in the model, not a user input.
     pub fn is_on(&self, info: &EffectInfo) -> bool {
-        *self.on.get(info.name).unwrap_or_else(|| panic!("effect `{}` is not declared", info.name))
+        *self
+            .on
+            .get(info.name)
+            .unwrap_or_else(|| panic!("effect `{}` is not declared", info.name))
     }
 
     /// Every known effect with its current state, sorted by name.
@@ -97,8 +103,18 @@ pub struct EffectConfig(pub EffectSwitches);
 mod tests {
     use super::*;
 
-    const A: EffectInfo = EffectInfo { name: "env.a", default_on: true, summary: "a", source: "s" };
-    const B: EffectInfo = EffectInfo { name: "env.b", default_on: false, summary: "b", source: "s" };
+    const A: EffectInfo = EffectInfo {
+        name: "env.a",
+        default_on: true,
+        summary: "a",
+        source: "s",
+    };
+    const B: EffectInfo = EffectInfo {
+        name: "env.b",
+        default_on: false,
+        summary: "b",
+        source: "s",
+    };
 
     #[test]
     fn defaults_switches_and_unknown_names() {
@@ -107,7 +123,10 @@ mod tests {
         e.set("env.b", true).unwrap();
         assert!(e.is_on(&B));
         let err = e.set("env.c", true).unwrap_err();
-        assert_eq!(err.to_string(), "unknown effect `env.c` (known: env.a, env.b)");
+        assert_eq!(
+            err.to_string(),
+            "unknown effect `env.c` (known: env.a, env.b)"
+        );
         let sw: EffectSwitches = [("env.a".to_owned(), false)].into();
         let e = Effects::with_switches(&[A, B], &sw).unwrap();
         assert!(!e.is_on(&A) && !e.is_on(&B));

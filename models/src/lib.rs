@@ -15,4 +15,7 @@ pub mod ideal;
 pub mod sensor;
 pub mod space;
 
-pub use sensor::{ModelError, ModelMode, SensorConfig, SensorKind, SensorModel, StepInput, StepOutput, build_sensor};
+pub use sensor::{
+    ModelError, ModelMode, SensorConfig, SensorKind, SensorModel, StepInput, StepOutput,
+    build_sensor,
+};

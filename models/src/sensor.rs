@@ -151,9 +151,21 @@ impl SensorConfig {
         use std::f64::consts::PI;
         let (range_m, fov_h, fov_v, cycle, pos) = match kind {
             // Front camera behind the windscreen.
-            SensorKind::Camera => (150.0, 60f64.to_radians(), 40f64.to_radians(), 0.033, [1.9, 0.0, 1.3]),
+            SensorKind::Camera => (
+                150.0,
+                60f64.to_radians(),
+                40f64.to_radians(),
+                0.033,
+                [1.9, 0.0, 1.3],
+            ),
             // Front long-range radar in the bumper.
-            SensorKind::Radar => (200.0, 90f64.to_radians(), 10f64.to_radians(), 0.05, [3.7, 0.0, 0.5]),
+            SensorKind::Radar => (
+                200.0,
+                90f64.to_radians(),
+                10f64.to_radians(),
+                0.05,
+                [3.7, 0.0, 0.5],
+            ),
             // Roof spinning LiDAR.
             SensorKind::Lidar => (120.0, 2.0 * PI, 30f64.to_radians(), 0.1, [1.4, 0.0, 1.9]),
         };
@@ -164,7 +176,10 @@ impl SensorConfig {
             fov_horizontal_rad: fov_h,
             fov_vertical_rad: fov_v,
             update_cycle_s: cycle,
-            mounting: Mounting { position_m: pos, orientation_rad: [0.0; 3] },
+            mounting: Mounting {
+                position_m: pos,
+                orientation_rad: [0.0; 3],
+            },
             min_visible_fraction: default_min_visible_fraction(),
         }
     }
@@ -172,7 +187,11 @@ impl SensorConfig {
     /// Parse a JSON configuration; errors name the line, column and what was expected.
     pub fn from_json_str(text: &str) -> Result<SensorConfig, ModelError> {
         let cfg: SensorConfig = serde_json::from_str(text).map_err(|e| {
-            ModelError::Config(format!("JSON line {}, column {}: {e}", e.line(), e.column()))
+            ModelError::Config(format!(
+                "JSON line {}, column {}: {e}",
+                e.line(),
+                e.column()
+            ))
         })?;
         cfg.validate()?;
         Ok(cfg)
@@ -184,7 +203,9 @@ impl SensorConfig {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(ModelError::Config(format!("`{name}` must be a finite number > 0, got {v}")))
+                Err(ModelError::Config(format!(
+                    "`{name}` must be a finite number > 0, got {v}"
+                )))
             }
         };
         positive("range_m", self.range_m)?;
@@ -209,8 +230,16 @@ impl SensorConfig {
                 self.min_visible_fraction
             )));
         }
-        if self.mounting.position_m.iter().chain(&self.mounting.orientation_rad).any(|v| !v.is_finite()) {
-            return Err(ModelError::Config("`mounting` values must be finite".into()));
+        if self
+            .mounting
+            .position_m
+            .iter()
+            .chain(&self.mounting.orientation_rad)
+            .any(|v| !v.is_finite())
+        {
+            return Err(ModelError::Config(
+                "`mounting` values must be finite".into(),
+            ));
         }
         Ok(())
     }

@@ -35,9 +35,11 @@ pub const OSI_VERSION: (u32, u32, u32) = (3, 8, 0);
 pub const PERCEPTION_EXTENSION_VERSION: &str = "1.0.0";
 
 /// OSMP MIME type of a SensorView buffer.
-pub const MIME_SENSOR_VIEW: &str = "application/x-open-simulation-interface; type=SensorView; version=3.8.0";
+pub const MIME_SENSOR_VIEW: &str =
+    "application/x-open-simulation-interface; type=SensorView; version=3.8.0";
 /// OSMP MIME type of a SensorData buffer.
-pub const MIME_SENSOR_DATA: &str = "application/x-open-simulation-interface; type=SensorData; version=3.8.0";
+pub const MIME_SENSOR_DATA: &str =
+    "application/x-open-simulation-interface; type=SensorData; version=3.8.0";
 /// OSMP MIME type of a SensorViewConfiguration buffer.
 pub const MIME_SENSOR_VIEW_CONFIGURATION: &str =
     "application/x-open-simulation-interface; type=SensorViewConfiguration; version=3.8.0";
@@ -59,7 +61,10 @@ pub fn timestamp_from_seconds(t_s: f64) -> osi3::Timestamp {
     let total_ns = (t_s * 1e9).round() as i128;
     let seconds = total_ns.div_euclid(1_000_000_000) as i64;
     let nanos = total_ns.rem_euclid(1_000_000_000) as u32;
-    osi3::Timestamp { seconds: Some(seconds), nanos: Some(nanos) }
+    osi3::Timestamp {
+        seconds: Some(seconds),
+        nanos: Some(nanos),
+    }
 }
 
 /// An OSI `Timestamp` in seconds (absent fields count as 0).

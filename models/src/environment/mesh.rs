@@ -34,7 +34,11 @@ impl Mesh {
     /// Corner positions of triangle `i`.
     pub fn triangle(&self, i: usize) -> [Vec3; 3] {
         let [a, b, c] = self.triangles[i];
-        [self.positions[a as usize], self.positions[b as usize], self.positions[c as usize]]
+        [
+            self.positions[a as usize],
+            self.positions[b as usize],
+            self.positions[c as usize],
+        ]
     }
 
     /// Index of the part named `name`, adding it with `material` if new.
@@ -42,7 +46,10 @@ impl Mesh {
         if let Some(i) = self.parts.iter().position(|p| p.name == name) {
             return i as u16;
         }
-        self.parts.push(Part { name: name.to_owned(), material: material.to_owned() });
+        self.parts.push(Part {
+            name: name.to_owned(),
+            material: material.to_owned(),
+        });
         (self.parts.len() - 1) as u16
     }
 
@@ -58,14 +65,24 @@ impl Mesh {
     pub fn append(&mut self, other: &Mesh) {
         let base = self.positions.len() as u32;
         self.positions.extend_from_slice(&other.positions);
-        let remap: Vec<u16> = other.parts.iter().map(|p| self.part(&p.name, &p.material)).collect();
-        self.triangles.extend(other.triangles.iter().map(|t| t.map(|i| i + base)));
-        self.triangle_part.extend(other.triangle_part.iter().map(|&p| remap[p as usize]));
+        let remap: Vec<u16> = other
+            .parts
+            .iter()
+            .map(|p| self.part(&p.name, &p.material))
+            .collect();
+        self.triangles
+            .extend(other.triangles.iter().map(|t| t.map(|i| i + base)));
+        self.triangle_part
+            .extend(other.triangle_part.iter().map(|&p| remap[p as usize]));
     }
 
     /// Axis-aligned bounds (min, max); `None` for an empty mesh.
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
         let first = *self.positions.first()?;
-        Some(self.positions.iter().fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p))))
+        Some(
+            self.positions
+                .iter()
+                .fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p))),
+        )
     }
 }
