@@ -121,21 +121,7 @@ pub fn ideal_radar_power_dbm(rcs_dbsm: f64, range_m: f64) -> f64 {
         - 40.0 * range_m.max(1e-3).log10()
 }
 
-/// Value of `key` in an osiris model reference `osiris:<model>?k1=v1&k2=v2`.
-pub fn model_reference_param<'a>(reference: &'a str, key: &str) -> Option<&'a str> {
-    let (_, query) = reference.split_once('?')?;
-    query.split('&').find_map(|kv| {
-        kv.split_once('=')
-            .filter(|(k, _)| *k == key)
-            .map(|(_, v)| v)
-    })
-}
-
-/// Model name of an osiris model reference (`osiris:car?paint=black` → `car`).
-pub fn model_reference_name(reference: &str) -> Option<&str> {
-    let rest = reference.strip_prefix("osiris:")?;
-    Some(rest.split_once('?').map_or(rest, |(n, _)| n))
-}
+pub use crate::environment::assets::{model_reference_name, model_reference_param};
 
 /// Peak RCS of a trihedral corner reflector of inner edge `a`, `σ = 4π·a⁴ / (3·λ²)`, in dBsm at the
 /// ideal radar's wavelength (a = 0.1 m → ≈ 14.4 dBsm at 76.5 GHz).
@@ -241,8 +227,10 @@ pub fn default_lidar_intensity_percent(
     use osi3::stationary_object::classification::Type as S;
     if let Some(v) = model_reference
         .and_then(|r| model_reference_param(r, "material"))
-        .and_then(|m| m.strip_prefix("lambertian_"))
-        .and_then(|v| v.parse::<f64>().ok())
+        .and_then(|m| {
+            m.strip_prefix("lambertian_")
+                .and_then(|v| v.parse::<f64>().ok())
+        })
         && v.is_finite()
     {
         return v.clamp(0.0, 100.0);
@@ -1316,7 +1304,10 @@ mod tests {
     fn model_reference_parsing() {
         let r = "osiris:board?width_m=1&height_m=1&material=lambertian_50";
         assert_eq!(model_reference_name(r), Some("board"));
-        assert_eq!(model_reference_param(r, "material"), Some("lambertian_50"));
+        assert_eq!(
+            model_reference_param(r, "material").as_deref(),
+            Some("lambertian_50")
+        );
         assert_eq!(model_reference_param(r, "paint"), None);
         assert_eq!(model_reference_name("osiris:truck"), Some("truck"));
         assert_eq!(default_lidar_intensity_percent(Some(r), None), 50.0);
