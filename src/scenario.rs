@@ -1004,7 +1004,15 @@ impl ScenarioConfig {
                     color: Some(C::Gray as i32),
                     ..Default::default()
                 }),
-                model_reference: Some("osiris:guardrail".into()),
+                // The W-beam faces the road: +y (the asset default) for a rail on the right of
+                // the road, -y for one on the left.
+                model_reference: Some(
+                    match g.side {
+                        Side::Right => "osiris:guardrail",
+                        Side::Left => "osiris:guardrail?face=right",
+                    }
+                    .into(),
+                ),
                 ..Default::default()
             });
         }
@@ -1372,7 +1380,7 @@ mod tests {
         let rail = gt
             .stationary_object
             .iter()
-            .find(|s| s.model_reference.as_deref() == Some("osiris:guardrail"))
+            .find(|s| s.model_reference.as_deref().is_some_and(|r| r.starts_with("osiris:guardrail")))
             .unwrap();
         let rail_y = rail.base.as_ref().unwrap().position.unwrap().y.unwrap();
         assert!(rail_y < c.road.road_edge_right_y());
