@@ -5,6 +5,8 @@
 //!   SensorView with 100 moving objects. A timed step is what an importer pays per cycle: set the
 //!   OSMP input triple, `fmi2DoStep` (decode SensorView, model step, encode SensorData and
 //!   PerceptionData), read the output triples and copy the bytes out.
+//! * `space`: the space-design ray tracer on a ≈1 M-triangle street
+//!   ([`osiris_models::space::bench`]).
 
 use std::path::Path;
 use std::time::Instant;

@@ -6,6 +6,7 @@
 //! * `osiris package [--out DIR]`: builds `camera.fmu`, `radar.fmu`, `lidar.fmu` (default `target/fmu/`).
 //! * `osiris bench <what>`: one JSON line of figures per benchmark.
 //! * `osiris scenario`: prints the built-in default scenario as JSON (a starting point for your own).
+//! * `osiris effects`: lists every named physical effect (name, default, formula, source).
 //! * `osiris model-description <sensor>`: prints a sensor FMU's modelDescription.xml.
 
 use std::path::{Path, PathBuf};
@@ -60,6 +61,9 @@ impl From<SensorArg> for SensorKind {
 pub enum BenchWhat {
     /// Cost of one `fmi2DoStep` of each FMU for a SensorView with 100 moving objects.
     Fmu,
+    /// Ray tracing on a ≈1 M-triangle street: BVH build, top-level update, Mrays/s (coherent LiDAR
+    /// pattern and random rays) on 1 and 2 threads.
+    Space,
 }
 
 #[derive(Debug, Subcommand)]
@@ -88,12 +92,21 @@ pub enum Command {
         /// Timed steps per measurement.
         #[arg(long, default_value_t = 200)]
         iterations: usize,
-        /// Folder with the packaged FMUs (packaged there first if missing or stale).
+        /// Folder with the packaged FMUs (packaged there first if missing or stale); `fmu` only.
         #[arg(long, value_name = "DIR")]
         fmu_dir: Option<PathBuf>,
+        /// Thread counts to measure; `space` only.
+        #[arg(long, value_delimiter = ',', default_values_t = [1usize, 2])]
+        threads: Vec<usize>,
     },
     /// Print the built-in default scenario as JSON.
     Scenario,
+    /// List every named physical effect: name, default, formula, source.
+    Effects {
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
     /// Print the modelDescription.xml of a sensor FMU.
     ModelDescription {
         #[arg(value_enum)]
@@ -161,16 +174,51 @@ pub fn main_with(cli: Cli) -> Result<()> {
             what,
             iterations,
             fmu_dir,
+            threads,
         } => {
-            let fmu_dir = ensure_fmus(fmu_dir, &SensorKind::ALL)?;
             let figures = match what {
-                BenchWhat::Fmu => crate::bench::bench_fmu(&fmu_dir, iterations)?,
+                BenchWhat::Fmu => {
+                    let fmu_dir = ensure_fmus(fmu_dir, &SensorKind::ALL)?;
+                    crate::bench::bench_fmu(&fmu_dir, iterations)?
+                }
+                BenchWhat::Space => {
+                    if threads.is_empty() || threads.contains(&0) {
+                        bail!("--threads: give thread counts >= 1, e.g. 1,2");
+                    }
+                    osiris_models::space::bench::bench_space(&threads)
+                }
             };
             println!("{}", serde_json::to_string(&figures)?);
             Ok(())
         }
         Command::Scenario => {
             println!("{}", ScenarioConfig::default().to_json_pretty());
+            Ok(())
+        }
+        Command::Effects { json } => {
+            let all = osiris_models::effects::catalogue();
+            if json {
+                let rows: Vec<_> = all
+                    .iter()
+                    .map(|e| {
+                        serde_json::json!({
+                            "name": e.name,
+                            "default_on": e.default_on,
+                            "summary": e.summary,
+                            "source": e.source,
+                        })
+                    })
+                    .collect();
+                println!("{}", serde_json::to_string_pretty(&rows)?);
+            } else {
+                for e in &all {
+                    let state = if e.default_on { "on " } else { "off" };
+                    println!(
+                        "{:<28} {state}  {}\n{:<33}source: {}",
+                        e.name, e.summary, "", e.source
+                    );
+                }
+            }
             Ok(())
         }
         Command::ModelDescription { sensor } => {

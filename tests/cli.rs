@@ -368,3 +368,17 @@ fn bad_inputs_give_clear_errors() {
     .unwrap_err();
     assert!(format!("{e:#}").contains("osiris package"), "{e:#}");
 }
+
+#[test]
+fn readme_lists_every_named_effect() {
+    let readme =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md")).unwrap();
+    for e in osiris_models::effects::catalogue() {
+        assert!(
+            readme.contains(&format!("`{}`", e.name)),
+            "README.md does not document `{}`",
+            e.name
+        );
+    }
+    run_cli(&["effects", "--json"]).unwrap();
+}

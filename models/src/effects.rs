@@ -94,6 +94,19 @@ impl Effects {
     }
 }
 
+/// Every physical effect osiris declares, sorted by name: the catalogue `osiris effects` prints and
+/// the README lists (a test keeps them in step).
+pub fn catalogue() -> Vec<EffectInfo> {
+    let mut all: Vec<EffectInfo> = [
+        crate::environment::material::EFFECTS,
+        crate::environment::weather::EFFECTS,
+        crate::space::EFFECTS,
+    ]
+    .concat();
+    all.sort_by_key(|e| e.name);
+    all
+}
+
 /// Serde helper so configs can carry `"effects": {"env.fog_extinction": false}`.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(transparent)]
@@ -115,6 +128,24 @@ mod tests {
         summary: "b",
         source: "s",
     };
+
+    #[test]
+    fn catalogue_names_are_unique_and_documented() {
+        let all = catalogue();
+        assert!(all.len() >= 10);
+        for w in all.windows(2) {
+            assert_ne!(w[0].name, w[1].name, "effect declared twice");
+        }
+        for e in &all {
+            let (layer, effect) = e.name.split_once('.').expect("`<layer>.<effect>`");
+            assert!(!layer.is_empty() && !effect.is_empty(), "{}", e.name);
+            assert!(
+                !e.summary.is_empty() && !e.source.is_empty(),
+                "{} lacks its formula or source",
+                e.name
+            );
+        }
+    }
 
     #[test]
     fn defaults_switches_and_unknown_names() {

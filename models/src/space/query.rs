@@ -1,0 +1,537 @@
+//! Ray queries: closest hit, any hit, batches, transmission.
+
+use glam::{DVec3, Vec3A, Vec4};
+use obvhs::ray::RayHit;
+use rayon::prelude::*;
+
+use super::accel::{Instance, Space};
+use super::packet::{Packet, traverse4};
+use super::traverse::traverse;
+use super::{Hit, Ray};
+use crate::environment::material::MaterialId;
+
+/// Rays per rayon task in the batch queries (large enough to amortise scheduling, small enough to
+/// balance 2–16 threads on a LiDAR frame; consecutive rays stay on one thread, keeping coherence).
+const CHUNK: usize = 512;
+
+/// Instance index of a static-world hit.
+const STATIC: u32 = u32::MAX;
+
+/// A hit before its attributes are looked up: f32 distance, instance (`STATIC` for the world) and
+/// the BVH-order triangle index in that instance's BLAS.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct RawHit {
+    pub(crate) t: f32,
+    pub(crate) instance: u32,
+    pub(crate) prim: u32,
+}
+
+/// How much of the power reaching a surface passes through it (0 opaque … 1 invisible).
+/// Implemented for any `Fn(MaterialId) -> f64` (the materials database's transmittance per
+/// material); implement it on a type to use the incidence angle (Fresnel).
+pub trait TransmissionModel: Sync {
+    /// Transmittance of the surface at `hit` for a ray travelling along `direction`.
+    fn transmittance(&self, hit: &Hit, direction: DVec3) -> f64;
+}
+
+impl<F: Fn(MaterialId) -> f64 + Sync> TransmissionModel for F {
+    fn transmittance(&self, hit: &Hit, _direction: DVec3) -> f64 {
+        self(hit.material)
+    }
+}
+
+/// Result of [`Space::closest_hit_through`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Transmitted {
+    /// The first surface that stopped the ray (opaque, or the one after `max_crossings`); `None` if
+    /// the ray left the scene.
+    pub hit: Option<Hit>,
+    /// Product of the transmittances of the crossed surfaces, `T = Π τ_i`.
+    pub transmittance: f64,
+    /// Number of transmissive surfaces crossed.
+    pub crossed: u32,
+}
+
+/// Offset (m) that separates a new ray from the surface it leaves, above the f32 rounding of
+/// scene coordinates of magnitude `scale` (≈ 1 mm at 1 km, 20 µm near the origin).
+pub(crate) fn surface_epsilon(p: DVec3, scale: f64) -> f64 {
+    1e-5 + 8.0 * f64::from(f32::EPSILON) * (p.abs().max_element() + scale)
+}
+
+/// Whether four rays are worth tracing as a packet: a common origin (within 1 mm) and directions
+/// within ≈ 8° of the first one (a LiDAR column, a camera tile).
+#[inline(always)]
+fn coherent(rays: &[Ray; 4]) -> bool {
+    let (o, d) = (rays[0].origin, rays[0].direction);
+    rays[1..]
+        .iter()
+        .all(|r| (r.origin - o).abs().max_element() <= 1e-3 && r.direction.dot(d) >= 0.99)
+}
+
+/// Whether the CPU has AVX2 and FMA (cached by std after the first call).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn avx2_fma() -> bool {
+    std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
+}
+
+/// An obvhs ray. Direction components of −0.0 are turned into +0.0 (`x + 0.0`): the CWBVH node test
+/// picks slab sides from `direction < 0` but divides by the signed zero (1/−0 < 0), which would
+/// miss every node along axis-parallel directions.
+#[inline(always)]
+fn obvhs_ray(origin: Vec3A, direction: Vec3A, t_min: f32, t_max: f32) -> obvhs::ray::Ray {
+    obvhs::ray::Ray::new(origin, direction + Vec3A::ZERO, t_min, t_max)
+}
+
+#[inline(always)]
+fn f32_ray(ray: &Ray) -> obvhs::ray::Ray {
+    obvhs_ray(
+        ray.origin.as_vec3a(),
+        ray.direction.as_vec3a(),
+        ray.t_min as f32,
+        ray.t_max as f32,
+    )
+}
+
+#[inline(always)]
+fn mesh_ray(inst: &Instance, r: &obvhs::ray::Ray) -> obvhs::ray::Ray {
+    let o = inst.scene_to_mesh.transform_point3a(r.origin);
+    let d = inst.scene_to_mesh.transform_vector3a(r.direction);
+    obvhs_ray(o, d, r.tmin, r.tmax)
+}
+
+impl Space {
+    /// Closest surface on the ray (static world first, then the instances it could still hit).
+    #[inline(always)]
+    pub(crate) fn closest_raw(&self, ray: &obvhs::ray::Ray) -> Option<RawHit> {
+        let mut r = *ray;
+        let mut best = None;
+        if let Some((t, prim)) = self.static_blas.closest(&r) {
+            r.tmax = t;
+            best = Some(RawHit {
+                t,
+                instance: STATIC,
+                prim,
+            });
+        }
+        if self.tlas.nodes.is_empty() {
+            return best;
+        }
+        // Into the instance's mesh frame, then its BLAS; `t` is unchanged by the rigid transform.
+        let blas_hit = |i: u32, tr: &obvhs::ray::Ray| {
+            let inst = &self.instances[i as usize];
+            self.meshes[inst.desc.mesh.0 as usize].closest(&mesh_ray(inst, tr))
+        };
+        if self.tlas_shallow {
+            traverse(&self.tlas.nodes, &mut r, |first, count, tr| {
+                for p in first..first + count {
+                    let i = self.tlas.primitive_indices[p as usize];
+                    if let Some((t, prim)) = blas_hit(i, tr) {
+                        tr.tmax = t;
+                        best = Some(RawHit {
+                            t,
+                            instance: i,
+                            prim,
+                        });
+                    }
+                }
+                true
+            });
+        } else {
+            let mut found = (STATIC, 0);
+            let mut top = RayHit::none();
+            let hit = self.tlas.ray_traverse(r, &mut top, |tr, id| {
+                let i = self.tlas.primitive_indices[id];
+                match blas_hit(i, tr) {
+                    Some((t, prim)) => {
+                        found = (i, prim);
+                        t
+                    }
+                    None => f32::INFINITY,
+                }
+            });
+            if hit {
+                best = Some(RawHit {
+                    t: top.t,
+                    instance: found.0,
+                    prim: found.1,
+                });
+            }
+        }
+        best
+    }
+
+    /// [`Space::closest_raw`] for a packet of four coherent rays (same results per ray).
+    #[inline(always)]
+    pub(crate) fn closest_raw4(&self, rays: &[obvhs::ray::Ray; 4]) -> [Option<RawHit>; 4] {
+        if !self.tlas_shallow {
+            return rays.map(|r| self.closest_raw(&r));
+        }
+        let mut p = Packet::new(rays);
+        let mut prim = [u32::MAX; 4];
+        let mut instance = [STATIC; 4];
+        self.static_blas.closest4(&mut p, &mut prim);
+        if !self.tlas.nodes.is_empty() {
+            traverse4(&self.tlas.nodes, &mut p, |first, count, p| {
+                for q in first..first + count {
+                    let i = self.tlas.primitive_indices[q as usize];
+                    let inst = &self.instances[i as usize];
+                    let mut local = p.transformed(&inst.scene_to_mesh);
+                    let mut local_prim = [u32::MAX; 4];
+                    self.meshes[inst.desc.mesh.0 as usize].closest4(&mut local, &mut local_prim);
+                    let better = local.tmax.cmplt(p.tmax);
+                    let m = better.bitmask();
+                    if m != 0 {
+                        p.tmax = Vec4::select(better, local.tmax, p.tmax);
+                        for l in 0..4 {
+                            if m & (1 << l) != 0 {
+                                prim[l] = local_prim[l];
+                                instance[l] = i;
+                            }
+                        }
+                    }
+                }
+                true
+            });
+        }
+        std::array::from_fn(|l| {
+            (prim[l] != u32::MAX).then(|| RawHit {
+                t: p.tmax[l],
+                instance: instance[l],
+                prim: prim[l],
+            })
+        })
+    }
+
+    /// Whether any surface lies on the ray (early exit on the first one found).
+    #[inline(always)]
+    pub(crate) fn occluded_raw(&self, ray: &obvhs::ray::Ray) -> bool {
+        if self.static_blas.occluded(ray) {
+            return true;
+        }
+        if self.tlas.nodes.is_empty() {
+            return false;
+        }
+        let blas_occluded = |i: u32, tr: &obvhs::ray::Ray| {
+            let inst = &self.instances[i as usize];
+            self.meshes[inst.desc.mesh.0 as usize].occluded(&mesh_ray(inst, tr))
+        };
+        if self.tlas_shallow {
+            let mut r = *ray;
+            let mut hit = false;
+            traverse(&self.tlas.nodes, &mut r, |first, count, tr| {
+                hit = (first..first + count)
+                    .any(|p| blas_occluded(self.tlas.primitive_indices[p as usize], tr));
+                !hit
+            });
+            hit
+        } else {
+            !self.tlas.ray_traverse_miss(*ray, |tr, id| {
+                if blas_occluded(self.tlas.primitive_indices[id], tr) {
+                    f32::NEG_INFINITY
+                } else {
+                    f32::INFINITY
+                }
+            })
+        }
+    }
+
+    /// [`Space::occluded_raw`] for a packet of four coherent rays.
+    #[inline(always)]
+    pub(crate) fn occluded_raw4(&self, rays: &[obvhs::ray::Ray; 4]) -> [bool; 4] {
+        if !self.tlas_shallow {
+            return rays.map(|r| self.occluded_raw(&r));
+        }
+        let mut p = Packet::new(rays);
+        let mut done = self.static_blas.occluded4(&mut p);
+        if done != 0b1111 && !self.tlas.nodes.is_empty() {
+            traverse4(&self.tlas.nodes, &mut p, |first, count, p| {
+                for q in first..first + count {
+                    let inst = &self.instances[self.tlas.primitive_indices[q as usize] as usize];
+                    let mut local = p.transformed(&inst.scene_to_mesh);
+                    let hit = self.meshes[inst.desc.mesh.0 as usize].occluded4(&mut local);
+                    for l in 0..4 {
+                        if hit & (1 << l) != 0 {
+                            p.tmax[l] = f32::NEG_INFINITY;
+                        }
+                    }
+                    done |= hit;
+                }
+                done != 0b1111
+            });
+        }
+        std::array::from_fn(|l| done & (1 << l) != 0)
+    }
+
+    /// The full hit record: distance and point recomputed in f64 from the hit triangle's plane,
+    /// normal, material, object and point velocity.
+    #[inline(always)]
+    pub(crate) fn finish_hit(&self, ray: &Ray, raw: RawHit) -> Hit {
+        let inst = (raw.instance != STATIC).then(|| &self.instances[raw.instance as usize]);
+        let blas = match inst {
+            None => &self.static_blas,
+            Some(i) => &self.meshes[i.desc.mesh.0 as usize],
+        };
+        let tri = &blas.tris[raw.prim as usize];
+        // RtTriangle stores e1 = v0 − v1, e2 = v2 − v0: the outward normal is (v1 − v0) × (v2 − v0).
+        let n_mesh = (-tri.e1.as_dvec3())
+            .cross(tri.e2.as_dvec3())
+            .normalize_or_zero();
+        let v0_mesh = tri.v0.as_dvec3();
+        let (v0, n) = match inst {
+            None => (v0_mesh, n_mesh),
+            Some(i) => (
+                i.desc.pose.transform_point(v0_mesh),
+                i.desc.pose.rotation * n_mesh,
+            ),
+        };
+        let cos = n.dot(ray.direction);
+        let t32 = f64::from(raw.t);
+        let t = if cos.abs() > 1e-9 {
+            let t64 = n.dot(v0 - ray.origin) / cos;
+            if (t64 - t32).abs() <= 1e-3 * (1.0 + t32) {
+                t64
+            } else {
+                t32
+            }
+        } else {
+            t32
+        };
+        let point = ray.at(t);
+        let (material, part, triangle) = blas.attributes(raw.prim);
+        Hit {
+            distance_m: t,
+            point,
+            geometric_normal: n,
+            front_face: cos < 0.0,
+            material,
+            part,
+            object_id: inst.map(|i| i.desc.object_id),
+            instance: inst.map(|_| raw.instance),
+            triangle,
+            velocity_m_s: inst.map_or(DVec3::ZERO, |i| i.desc.point_velocity(point)),
+        }
+    }
+
+    /// The closest surface on the ray within `[t_min, t_max]`.
+    #[inline]
+    pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
+        let mut out = [None];
+        self.trace_chunk(std::slice::from_ref(ray), &mut out);
+        out[0]
+    }
+
+    /// Whether any surface lies on the ray within `[t_min, t_max]` (occlusion, shadow rays; stops at the
+    /// first surface found, so it is cheaper than [`Space::closest_hit`]).
+    #[inline]
+    pub fn any_hit(&self, ray: &Ray) -> bool {
+        let mut out = [false];
+        self.occluded_chunk(std::slice::from_ref(ray), &mut out);
+        out[0]
+    }
+
+    /// Closest hits of a run of rays, with the traversal compiled for AVX2 + FMA where the CPU has
+    /// them (run-time detection; the workspace builds for baseline x86-64). Both paths perform the
+    /// same IEEE operations (no FMA contraction), so results do not depend on the path.
+    fn trace_chunk(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        #[inline(always)]
+        fn body(space: &Space, rays: &[Ray], out: &mut [Option<Hit>]) {
+            let mut groups = rays.chunks_exact(4);
+            let mut outs = out.chunks_exact_mut(4);
+            for (group, out) in (&mut groups).zip(&mut outs) {
+                let group: &[Ray; 4] = group.try_into().expect("chunks of 4");
+                if coherent(group) {
+                    let raw = space.closest_raw4(&group.map(|r| f32_ray(&r)));
+                    for ((ray, raw), hit) in group.iter().zip(raw).zip(out) {
+                        *hit = raw.map(|raw| space.finish_hit(ray, raw));
+                    }
+                } else {
+                    for (ray, hit) in group.iter().zip(out) {
+                        *hit = space
+                            .closest_raw(&f32_ray(ray))
+                            .map(|raw| space.finish_hit(ray, raw));
+                    }
+                }
+            }
+            for (ray, hit) in groups.remainder().iter().zip(outs.into_remainder()) {
+                *hit = space
+                    .closest_raw(&f32_ray(ray))
+                    .map(|raw| space.finish_hit(ray, raw));
+            }
+        }
+        #[cfg(target_arch = "x86_64")]
+        {
+            #[target_feature(enable = "avx2,fma")]
+            fn avx2(space: &Space, rays: &[Ray], out: &mut [Option<Hit>]) {
+                body(space, rays, out)
+            }
+            if avx2_fma() {
+                // SAFETY: the CPU supports AVX2 and FMA (checked at run time just above).
+                return unsafe { avx2(self, rays, out) };
+            }
+        }
+        body(self, rays, out)
+    }
+
+    /// [`Space::trace_chunk`] for occlusion.
+    fn occluded_chunk(&self, rays: &[Ray], out: &mut [bool]) {
+        #[inline(always)]
+        fn body(space: &Space, rays: &[Ray], out: &mut [bool]) {
+            let mut groups = rays.chunks_exact(4);
+            let mut outs = out.chunks_exact_mut(4);
+            for (group, out) in (&mut groups).zip(&mut outs) {
+                let group: &[Ray; 4] = group.try_into().expect("chunks of 4");
+                if coherent(group) {
+                    out.copy_from_slice(&space.occluded_raw4(&group.map(|r| f32_ray(&r))));
+                } else {
+                    for (ray, o) in group.iter().zip(out) {
+                        *o = space.occluded_raw(&f32_ray(ray));
+                    }
+                }
+            }
+            for (ray, o) in groups.remainder().iter().zip(outs.into_remainder()) {
+                *o = space.occluded_raw(&f32_ray(ray));
+            }
+        }
+        #[cfg(target_arch = "x86_64")]
+        {
+            #[target_feature(enable = "avx2,fma")]
+            fn avx2(space: &Space, rays: &[Ray], out: &mut [bool]) {
+                body(space, rays, out)
+            }
+            if avx2_fma() {
+                // SAFETY: the CPU supports AVX2 and FMA (checked at run time just above).
+                return unsafe { avx2(self, rays, out) };
+            }
+        }
+        body(self, rays, out)
+    }
+
+    /// Whether the straight segment between two points (typically on surfaces) is free of surfaces,
+    /// ignoring a small offset at both ends (20 µm near the origin, ≈ 1 mm at 1 km).
+    pub fn segment_clear(&self, from: DVec3, to: DVec3) -> bool {
+        let d = to - from;
+        let len = d.length();
+        if len == 0.0 {
+            return true;
+        }
+        let eps = surface_epsilon(from.abs().max(to.abs()), len);
+        if len <= 2.0 * eps {
+            return true;
+        }
+        let ray = Ray {
+            origin: from,
+            direction: d / len,
+            t_min: eps,
+            t_max: len - eps,
+        };
+        !self.any_hit(&ray)
+    }
+
+    /// [`Space::closest_hit`] for every ray, in parallel on the current rayon pool (`out[i]` for
+    /// `rays[i]`, chunks of 512 rays per task). Runs of four consecutive rays with a common origin and
+    /// directions within ≈ 8° (LiDAR columns, camera tiles) are traced as SIMD packets: issue coherent
+    /// rays next to each other. Panics if the lengths differ.
+    pub fn trace_batch(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        assert_eq!(
+            rays.len(),
+            out.len(),
+            "trace_batch: {} rays but {} outputs",
+            rays.len(),
+            out.len()
+        );
+        rays.par_chunks(CHUNK)
+            .zip(out.par_chunks_mut(CHUNK))
+            .for_each(|(rays, out)| self.trace_chunk(rays, out));
+    }
+
+    /// [`Space::trace_batch`] into a new vector.
+    pub fn closest_hits(&self, rays: &[Ray]) -> Vec<Option<Hit>> {
+        let mut out = vec![None; rays.len()];
+        self.trace_batch(rays, &mut out);
+        out
+    }
+
+    /// [`Space::any_hit`] for every ray, in parallel (`out[i]` for `rays[i]`).
+    pub fn occluded_batch(&self, rays: &[Ray], out: &mut [bool]) {
+        assert_eq!(
+            rays.len(),
+            out.len(),
+            "occluded_batch: {} rays but {} outputs",
+            rays.len(),
+            out.len()
+        );
+        rays.par_chunks(CHUNK)
+            .zip(out.par_chunks_mut(CHUNK))
+            .for_each(|(rays, out)| self.occluded_chunk(rays, out));
+    }
+
+    /// The closest surface that stops the ray, passing through up to `max_crossings` transmissive
+    /// surfaces (τ > 0 under `model`) and multiplying their transmittances. The ray is not bent (thin
+    /// panes); `hit.distance_m` is measured from the ray origin. Without `space.transmission` every
+    /// surface stops the ray (`transmittance` 1, `crossed` 0).
+    pub fn closest_hit_through(
+        &self,
+        ray: &Ray,
+        model: &dyn TransmissionModel,
+        max_crossings: u32,
+    ) -> Transmitted {
+        let mut r = *ray;
+        let mut transmittance = 1.0;
+        let mut crossed = 0;
+        loop {
+            let Some(hit) = self.closest_hit(&r) else {
+                return Transmitted {
+                    hit: None,
+                    transmittance,
+                    crossed,
+                };
+            };
+            if !self.effects.transmission || crossed >= max_crossings {
+                return Transmitted {
+                    hit: Some(hit),
+                    transmittance,
+                    crossed,
+                };
+            }
+            let tau = model.transmittance(&hit, ray.direction).clamp(0.0, 1.0);
+            if tau <= 0.0 {
+                return Transmitted {
+                    hit: Some(hit),
+                    transmittance,
+                    crossed,
+                };
+            }
+            transmittance *= tau;
+            crossed += 1;
+            r.t_min = hit.distance_m + surface_epsilon(hit.point, hit.distance_m);
+            if r.t_min >= r.t_max {
+                return Transmitted {
+                    hit: None,
+                    transmittance,
+                    crossed,
+                };
+            }
+        }
+    }
+
+    /// Fraction of power that gets along the ray to `t_max` (visibility through glass): the product
+    /// of the crossed surfaces' transmittances, 0 if an opaque surface (or more than `max_crossings`
+    /// transmissive ones) is in the way. Without `space.transmission`: 0 or 1 ([`Space::any_hit`]).
+    pub fn transmittance_along(
+        &self,
+        ray: &Ray,
+        model: &dyn TransmissionModel,
+        max_crossings: u32,
+    ) -> f64 {
+        if !self.effects.transmission {
+            return if self.any_hit(ray) { 0.0 } else { 1.0 };
+        }
+        let t = self.closest_hit_through(ray, model, max_crossings);
+        if t.hit.is_some() {
+            0.0
+        } else {
+            t.transmittance
+        }
+    }
+}
