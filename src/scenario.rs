@@ -1380,7 +1380,11 @@ mod tests {
         let rail = gt
             .stationary_object
             .iter()
-            .find(|s| s.model_reference.as_deref().is_some_and(|r| r.starts_with("osiris:guardrail")))
+            .find(|s| {
+                s.model_reference
+                    .as_deref()
+                    .is_some_and(|r| r.starts_with("osiris:guardrail"))
+            })
             .unwrap();
         let rail_y = rail.base.as_ref().unwrap().position.unwrap().y.unwrap();
         assert!(rail_y < c.road.road_edge_right_y());
