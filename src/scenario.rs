@@ -448,6 +448,13 @@ pub struct EnvironmentConfig {
     /// %
     #[serde(default = "default_humidity")]
     pub relative_humidity_percent: f64,
+    /// Rain rate, mm/h. OSI carries only a category (`precipitation`, derived from this); sensor
+    /// models take the rate from [`ScenarioConfig::weather`].
+    #[serde(default)]
+    pub rain_mm_h: f64,
+    /// Fog visibility, m (absent = clear). OSI carries only a category (`fog`, derived from this).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fog_visibility_m: Option<f64>,
 }
 
 impl Default for EnvironmentConfig {
@@ -458,6 +465,8 @@ impl Default for EnvironmentConfig {
             temperature_k: default_temperature(),
             atmospheric_pressure_pa: default_pressure(),
             relative_humidity_percent: default_humidity(),
+            rain_mm_h: 0.0,
+            fog_visibility_m: None,
         }
     }
 }
@@ -659,6 +668,10 @@ impl ScenarioConfig {
         };
         positive("step_s", self.step_s)?;
         non_negative("duration_s", self.duration_s)?;
+        non_negative("environment.rain_mm_h", self.environment.rain_mm_h)?;
+        if let Some(v) = self.environment.fog_visibility_m {
+            positive("environment.fog_visibility_m", v)?;
+        }
         finite("start_time_s", self.start_time_s)?;
         let r = &self.road;
         if r.lanes == 0 || r.lanes > 64 {
@@ -1151,7 +1164,8 @@ impl ScenarioConfig {
     }
 
     fn environment(&self, t: f64) -> osi3::EnvironmentalConditions {
-        use osi3::environmental_conditions::{AmbientIllumination, Fog, Precipitation, TimeOfDay};
+        use osi3::environmental_conditions::{AmbientIllumination, TimeOfDay};
+        use osiris_models::environment::weather;
         let e = &self.environment;
         let seconds = (e.time_of_day_s + self.start_time_s + t)
             .rem_euclid(86_400.0)
@@ -1167,9 +1181,29 @@ impl ScenarioConfig {
             atmospheric_pressure: Some(e.atmospheric_pressure_pa),
             temperature: Some(e.temperature_k),
             relative_humidity: Some(e.relative_humidity_percent),
-            precipitation: Some(Precipitation::None as i32),
-            fog: Some(Fog::ExcellentVisibility as i32),
+            precipitation: Some(weather::osi_precipitation_category(e.rain_mm_h) as i32),
+            fog: Some(
+                weather::osi_fog_category(e.fog_visibility_m.unwrap_or(f64::INFINITY)) as i32,
+            ),
             ..Default::default()
+        }
+    }
+
+    /// The scenario's weather for the sensor models (the quantities OSI carries only as categories):
+    /// rain rate, fog visibility, temperature, humidity; the road is wet while it rains.
+    pub fn weather(&self) -> osiris_models::environment::weather::Weather {
+        use osiris_models::environment::weather::{RoadWetness, Weather};
+        let e = &self.environment;
+        Weather {
+            rain_mm_h: e.rain_mm_h,
+            fog_visibility_m: e.fog_visibility_m.unwrap_or(f64::INFINITY),
+            temperature_c: e.temperature_k - 273.15,
+            relative_humidity: e.relative_humidity_percent / 100.0,
+            road: if e.rain_mm_h > 0.0 {
+                RoadWetness::Wet
+            } else {
+                RoadWetness::Dry
+            },
         }
     }
 
@@ -1738,5 +1772,33 @@ mod tests {
             per_step * 1e3
         );
         assert!(seen > 0 && seen <= 100);
+    }
+
+    #[test]
+    fn weather_maps_to_osi_categories_and_back_to_the_models() {
+        use osi3::environmental_conditions::{Fog, Precipitation};
+        let mut c = ScenarioConfig::default();
+        c.environment.rain_mm_h = 25.0;
+        c.environment.fog_visibility_m = Some(150.0);
+        c.validate().unwrap();
+        let env = c.ground_truth(0).environmental_conditions.unwrap();
+        assert_eq!(env.precipitation, Some(Precipitation::Heavy as i32));
+        assert_eq!(env.fog, Some(Fog::Thick as i32));
+        let w = c.weather();
+        assert_eq!((w.rain_mm_h, w.fog_visibility_m), (25.0, 150.0));
+        assert!(w.road.is_wet());
+        assert!((w.temperature_c - (c.environment.temperature_k - 273.15)).abs() < 1e-12);
+        let clear = ScenarioConfig::default();
+        assert_eq!(clear.weather().fog_visibility_m, f64::INFINITY);
+        let env = clear.ground_truth(0).environmental_conditions.unwrap();
+        assert_eq!(env.precipitation, Some(Precipitation::None as i32));
+        assert_eq!(env.fog, Some(Fog::ExcellentVisibility as i32));
+        c.environment.fog_visibility_m = Some(-1.0);
+        assert!(
+            c.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("fog_visibility_m")
+        );
     }
 }

@@ -949,3 +949,65 @@ mod tests {
         assert_eq!(b, Band::MmWave { hz: 77e9 });
     }
 }
+
+/// OSI `EnvironmentalConditions.Precipitation` category of a rain rate (mm/h), with the class limits
+/// of the OSI 3.8.0 documentation (`osi_environment.proto`): NONE < 0.1, VERY_LIGHT < 0.5,
+/// LIGHT < 1.9, MODERATE < 8.1, HEAVY < 34, VERY_HEAVY < 149, EXTREME ≥ 149 mm/h.
+pub fn osi_precipitation_category(
+    rain_mm_h: f64,
+) -> osiris_proto::osi3::environmental_conditions::Precipitation {
+    use osiris_proto::osi3::environmental_conditions::Precipitation as P;
+    match rain_mm_h {
+        r if r.is_nan() => P::Unknown,
+        r if r < 0.1 => P::None,
+        r if r < 0.5 => P::VeryLight,
+        r if r < 1.9 => P::Light,
+        r if r < 8.1 => P::Moderate,
+        r if r < 34.0 => P::Heavy,
+        r if r < 149.0 => P::VeryHeavy,
+        _ => P::Extreme,
+    }
+}
+
+/// OSI `EnvironmentalConditions.Fog` category of a meteorological visibility (m), with the class
+/// limits of the OSI 3.8.0 documentation: EXCELLENT > 40 km, GOOD 10–40 km, MODERATE 4–10 km,
+/// POOR 2–4 km, MIST 1–2 km, LIGHT 200 m–1 km, THICK 50–200 m, DENSE < 50 m.
+pub fn osi_fog_category(visibility_m: f64) -> osiris_proto::osi3::environmental_conditions::Fog {
+    use osiris_proto::osi3::environmental_conditions::Fog as F;
+    match visibility_m {
+        v if v.is_nan() => F::Unknown,
+        v if v > 40_000.0 => F::ExcellentVisibility,
+        v if v >= 10_000.0 => F::GoodVisibility,
+        v if v >= 4_000.0 => F::ModerateVisibility,
+        v if v >= 2_000.0 => F::PoorVisibility,
+        v if v >= 1_000.0 => F::Mist,
+        v if v >= 200.0 => F::Light,
+        v if v >= 50.0 => F::Thick,
+        _ => F::Dense,
+    }
+}
+
+#[cfg(test)]
+mod osi_category_tests {
+    use super::*;
+    use osiris_proto::osi3::environmental_conditions::{Fog, Precipitation};
+
+    #[test]
+    fn categories_follow_the_osi_class_limits() {
+        assert_eq!(osi_precipitation_category(0.0), Precipitation::None);
+        assert_eq!(osi_precipitation_category(0.3), Precipitation::VeryLight);
+        assert_eq!(osi_precipitation_category(1.0), Precipitation::Light);
+        assert_eq!(osi_precipitation_category(5.0), Precipitation::Moderate);
+        assert_eq!(osi_precipitation_category(25.0), Precipitation::Heavy);
+        assert_eq!(osi_precipitation_category(100.0), Precipitation::VeryHeavy);
+        assert_eq!(osi_precipitation_category(200.0), Precipitation::Extreme);
+        assert_eq!(osi_fog_category(f64::INFINITY), Fog::ExcellentVisibility);
+        assert_eq!(osi_fog_category(20_000.0), Fog::GoodVisibility);
+        assert_eq!(osi_fog_category(5_000.0), Fog::ModerateVisibility);
+        assert_eq!(osi_fog_category(3_000.0), Fog::PoorVisibility);
+        assert_eq!(osi_fog_category(1_500.0), Fog::Mist);
+        assert_eq!(osi_fog_category(500.0), Fog::Light);
+        assert_eq!(osi_fog_category(100.0), Fog::Thick);
+        assert_eq!(osi_fog_category(30.0), Fog::Dense);
+    }
+}
