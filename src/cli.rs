@@ -624,23 +624,10 @@ fn scenario_frames(
         .collect()
 }
 
-/// Frames of a SensorView `.osi` trace: each SensorView is fed to every sensor.
+/// Frames of a SensorView `.osi` trace: each SensorView is fed to every sensor, at its timestamp.
 fn trace_frames(path: &Path) -> Result<Vec<Frame>> {
-    let mut frames = Vec::new();
-    for (i, item) in OsiTraceReader::open(path)?.enumerate() {
-        let bytes = item?;
-        let sv = osi3::SensorView::decode(bytes.as_slice())
-            .with_context(|| format!("{}: frame {i} is not an osi3.SensorView", path.display()))?;
-        let t = sv
-            .timestamp
-            .as_ref()
-            .or(sv
-                .global_ground_truth
-                .as_ref()
-                .and_then(|g| g.timestamp.as_ref()))
-            .map(osiris_proto::timestamp_to_seconds)
-            .with_context(|| format!("{}: frame {i} has no timestamp", path.display()))?;
-        frames.push(Frame::shared(t, bytes));
-    }
-    Ok(frames)
+    Ok(
+        crate::master::sensor_view_trace_frames(OsiTraceReader::open(path)?)
+            .collect::<Result<_, _>>()?,
+    )
 }

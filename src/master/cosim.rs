@@ -219,15 +219,26 @@ where
     Ok(summary)
 }
 
-/// Only field 2 (`timestamp`) of a SensorView: decoding it skips everything else cheaply.
+/// Only the timestamps of a SensorView (field 2, and field 2 of its `global_ground_truth` = 7):
+/// decoding it skips everything else cheaply.
 #[derive(Clone, PartialEq, prost::Message)]
 struct SensorViewTimestamp {
+    #[prost(message, optional, tag = "2")]
+    timestamp: Option<osi3::Timestamp>,
+    #[prost(message, optional, tag = "7")]
+    global_ground_truth: Option<GroundTruthTimestamp>,
+}
+
+/// Only field 2 (`timestamp`) of a GroundTruth.
+#[derive(Clone, PartialEq, prost::Message)]
+struct GroundTruthTimestamp {
     #[prost(message, optional, tag = "2")]
     timestamp: Option<osi3::Timestamp>,
 }
 
 /// Frames from a SensorView `.osi` trace: one [`Frame::shared`] per message (fed to every sensor) at the
-/// SensorView's `timestamp`. A frame without a timestamp is a [`TraceError::MissingField`].
+/// SensorView's `timestamp` (or, when that is absent, its ground truth's). A frame with neither is a
+/// [`TraceError::MissingField`].
 pub fn sensor_view_trace_frames<R: Read>(
     mut reader: OsiTraceReader<R>,
 ) -> impl Iterator<Item = Result<Frame, TraceError>> {
@@ -241,6 +252,14 @@ pub fn sensor_view_trace_frames<R: Read>(
         let ts = match <SensorViewTimestamp as prost::Message>::decode(bytes.as_slice()) {
             Ok(SensorViewTimestamp {
                 timestamp: Some(ts),
+                ..
+            }) => ts,
+            Ok(SensorViewTimestamp {
+                global_ground_truth:
+                    Some(GroundTruthTimestamp {
+                        timestamp: Some(ts),
+                    }),
+                ..
             }) => ts,
             Ok(_) => {
                 return Some(Err(TraceError::MissingField {
