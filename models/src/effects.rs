@@ -101,6 +101,8 @@ pub fn catalogue() -> Vec<EffectInfo> {
         crate::environment::material::EFFECTS,
         crate::environment::weather::EFFECTS,
         crate::space::EFFECTS,
+        &crate::lidar::effects(),
+        &crate::radar::effects(),
     ]
     .concat();
     all.sort_by_key(|e| e.name);

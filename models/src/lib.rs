@@ -7,13 +7,20 @@
 //! * [`effects`]: named, switchable physical effects.
 //! * [`environment`]: scene geometry, materials, sun and sky, weather.
 //! * [`space`]: ray-traced propagation (space design).
+//! * [`world`]: the per-step world of a physical model (scene, space, sensor pose, weather).
+//! * [`lidar`], [`radar`]: the physical sensor models.
+//! * [`recognition`]: detected objects from raw perception output, with tracking.
 
 pub mod effects;
 pub mod environment;
 pub mod frames;
 pub mod ideal;
+pub mod lidar;
+pub mod radar;
+pub mod recognition;
 pub mod sensor;
 pub mod space;
+pub mod world;
 
 pub use sensor::{
     ModelError, ModelMode, SensorConfig, SensorKind, SensorModel, StepInput, StepOutput,

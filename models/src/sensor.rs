@@ -3,6 +3,11 @@
 use osiris_proto::{osi3, perception};
 use serde::{Deserialize, Serialize};
 
+use crate::effects::EffectSwitches;
+use crate::environment::weather::Weather;
+use crate::lidar::LidarConfig;
+use crate::radar::RadarConfig;
+
 /// Which sensor technology a model simulates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -139,6 +144,23 @@ pub struct SensorConfig {
     /// the object to count as visible (0..1].
     #[serde(default = "default_min_visible_fraction")]
     pub min_visible_fraction: f64,
+    /// Physical models: effect switches by name (`{"lidar.range_walk": false}`); effects not
+    /// listed keep their defaults (`osiris effects` lists them). Unknown names are errors.
+    #[serde(default, skip_serializing_if = "EffectSwitches::is_empty")]
+    pub effects: EffectSwitches,
+    /// Physical models: exact weather (rain rate, fog visibility, ...). Absent: taken from the
+    /// ground truth's OSI `environmental_conditions` categories (a representative value per class).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub weather: Option<Weather>,
+    /// Seed of the physical models' random noise (same seed + same input = same output).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// Physical LiDAR parameters (`kind: lidar`); absent: the defaults.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lidar: Option<LidarConfig>,
+    /// Physical radar parameters (`kind: radar`); absent: the defaults.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radar: Option<RadarConfig>,
 }
 
 fn default_min_visible_fraction() -> f64 {
@@ -181,6 +203,11 @@ impl SensorConfig {
                 orientation_rad: [0.0; 3],
             },
             min_visible_fraction: default_min_visible_fraction(),
+            effects: EffectSwitches::new(),
+            weather: None,
+            seed: None,
+            lidar: None,
+            radar: None,
         }
     }
 
@@ -230,6 +257,25 @@ impl SensorConfig {
                 self.min_visible_fraction
             )));
         }
+        if let Some(w) = &self.weather {
+            w.validate()
+                .map_err(|e| ModelError::Config(format!("`weather`: {e}")))?;
+        }
+        if self.lidar.is_some() && self.kind != SensorKind::Lidar {
+            return Err(ModelError::Config(format!(
+                "`lidar` parameters given for a {} sensor",
+                self.kind.name()
+            )));
+        }
+        if self.radar.is_some() && self.kind != SensorKind::Radar {
+            return Err(ModelError::Config(format!(
+                "`radar` parameters given for a {} sensor",
+                self.kind.name()
+            )));
+        }
+        let known = crate::effects::catalogue();
+        crate::effects::Effects::with_switches(&known, &self.effects)
+            .map_err(|e| ModelError::Config(format!("`effects`: {e}")))?;
         if self
             .mounting
             .position_m
@@ -288,9 +334,12 @@ pub fn build_sensor(config: SensorConfig) -> Result<Box<dyn SensorModel>, ModelE
     config.validate()?;
     match config.mode {
         ModelMode::Ideal => Ok(Box::new(crate::ideal::IdealSensor::new(config))),
-        ModelMode::Physical => Err(ModelError::NotAvailable(format!(
-            "the physical {} model has not landed yet; use mode `ideal`",
-            config.kind.name()
-        ))),
+        ModelMode::Physical => match config.kind {
+            SensorKind::Lidar => crate::lidar::build(config),
+            SensorKind::Radar => crate::radar::build(config),
+            SensorKind::Camera => Err(ModelError::NotAvailable(
+                "the physical camera model has not landed yet; use mode `ideal`".into(),
+            )),
+        },
     }
 }

@@ -1,0 +1,354 @@
+//! The world a physical sensor model sees in one step: the SensorView turned into a ray-traceable
+//! [`Space`], the sensor's pose and motion in that space's frame, and the weather.
+//!
+//! [`SensorWorld`] is kept by a physical model across steps. Each step, [`SensorWorld::update`]
+//!
+//! 1. resolves the host vehicle (`SensorView.host_vehicle_id`, else `GroundTruth.host_vehicle_id`)
+//!    and the mounting (`SensorView.mounting_position`, else the configured one), as the ideal model
+//!    does ([`crate::frames::SensorFrame`]);
+//! 2. builds the [`Scene`] from the ground truth on the first step and updates it afterwards (object
+//!    poses and velocities; the static world is rebuilt only when the road network changes or the
+//!    scene origin is moved);
+//! 3. builds the [`Space`] (two-level BVH) on the first step and after a static rebuild, otherwise
+//!    only refreshes its top level ([`Space::sync_scene`]);
+//! 4. expresses the sensor frame in the **scene frame** (the space's frame: global minus
+//!    [`Scene::origin`]) with its linear and angular velocity;
+//! 5. takes the weather from the configuration (`"weather"` key: exact values) or else from the
+//!    ground truth's OSI categories ([`weather_from_osi`]: a representative value per class).
+//!
+//! The resulting [`WorldFrame`] is all a physical model needs to trace rays: everything in it is
+//! in the scene frame except `frame` (global).
+
+use glam::DVec3;
+use osiris_proto::{interface_version, osi3, timestamp_from_seconds};
+
+use crate::environment::material::MaterialDb;
+use crate::environment::scene::{Scene, SceneBuilder, SceneOptions};
+use crate::environment::weather::{RoadWetness, Weather};
+use crate::frames::{Pose, SensorFrame};
+use crate::sensor::{ModelError, SensorConfig};
+use crate::space::{Space, SpaceBuilder};
+
+/// One step's view of the world (see the module documentation).
+pub struct WorldFrame<'a> {
+    /// The scene (meshes, materials, instances), scene frame.
+    pub scene: &'a Scene,
+    /// The ray-traceable space of the scene, scene frame.
+    pub space: &'a Space,
+    /// Sensor frame → scene frame (`p_scene = sensor_pose.transform_point(p_sensor)`).
+    pub sensor_pose: Pose,
+    /// Velocity of the sensor origin, scene frame axes, m/s.
+    pub sensor_velocity_m_s: DVec3,
+    /// Angular velocity of the sensor frame, scene frame axes, rad/s.
+    pub sensor_angular_velocity_rad_s: DVec3,
+    /// The sensor frame in global coordinates (with its motion).
+    pub frame: SensorFrame,
+    /// Weather in effect this step.
+    pub weather: Weather,
+    /// Measurement time of this step (SensorView timestamp, else ground truth's, else the
+    /// communication point), s.
+    pub time_s: f64,
+    /// The same as an OSI timestamp.
+    pub timestamp: osi3::Timestamp,
+    /// Host vehicle id, if any.
+    pub host_id: Option<u64>,
+    /// The mounting in effect (physical sensor frame relative to the host vehicle frame).
+    pub mounting: osi3::MountingPosition,
+    /// The host vehicle's `base` (for `SensorData.host_vehicle_location`).
+    pub host_base: Option<osi3::BaseMoving>,
+    /// Sensor id of this step (SensorView's, else the configured one).
+    pub sensor_id: Option<osi3::Identifier>,
+}
+
+impl WorldFrame<'_> {
+    /// Sensor position in the scene frame, m.
+    pub fn sensor_origin(&self) -> DVec3 {
+        self.sensor_pose.position
+    }
+
+    /// Velocity of a point `p_scene` rigidly attached to the sensor (scene frame), m/s:
+    /// `v_s + ω × (p − s)`.
+    pub fn sensor_point_velocity(&self, p_scene: DVec3) -> DVec3 {
+        self.sensor_velocity_m_s
+            + self
+                .sensor_angular_velocity_rad_s
+                .cross(p_scene - self.sensor_pose.position)
+    }
+
+    /// The sensor pose `dt_s` seconds after the measurement time, assuming constant linear and
+    /// angular velocity over the interval (first order in `ω·dt`, exact for translation).
+    pub fn sensor_pose_at(&self, dt_s: f64) -> Pose {
+        let w = self.sensor_angular_velocity_rad_s;
+        let angle = w.length() * dt_s;
+        let rotation = if angle.abs() > 0.0 {
+            glam::DMat3::from_axis_angle(w.normalize(), angle) * self.sensor_pose.rotation
+        } else {
+            self.sensor_pose.rotation
+        };
+        Pose::new(
+            self.sensor_pose.position + self.sensor_velocity_m_s * dt_s,
+            rotation,
+        )
+    }
+
+    /// Fill the header fields every SensorData of this step carries: version, timestamp, sensor id,
+    /// mounting, host vehicle location, last measurement time, and the detected-object headers
+    /// with `cycle_counter`.
+    pub fn fill_sensor_data_header(&self, sd: &mut osi3::SensorData, cycle: u64) {
+        sd.version = Some(interface_version());
+        sd.timestamp = Some(self.timestamp);
+        sd.sensor_id = self.sensor_id;
+        sd.mounting_position = Some(self.mounting);
+        sd.host_vehicle_location = self.host_base.clone();
+        sd.last_measurement_time = Some(self.timestamp);
+        let entity_header = osi3::DetectedEntityHeader {
+            measurement_time: Some(self.timestamp),
+            cycle_counter: Some(cycle),
+            data_qualifier: Some(osi3::detected_entity_header::DataQualifier::Available as i32),
+        };
+        sd.moving_object_header = Some(entity_header);
+        sd.stationary_object_header = Some(entity_header);
+    }
+
+    /// The `SensorDetectionHeader` of feature data of this step.
+    pub fn detection_header(&self, cycle: u64, detections: usize) -> osi3::SensorDetectionHeader {
+        osi3::SensorDetectionHeader {
+            measurement_time: Some(self.timestamp),
+            cycle_counter: Some(cycle),
+            mounting_position: Some(self.mounting),
+            data_qualifier: Some(osi3::sensor_detection_header::DataQualifier::Available as i32),
+            number_of_valid_detections: Some(detections as u32),
+            sensor_id: self.sensor_id,
+            ..Default::default()
+        }
+    }
+}
+
+/// Scene and space kept across the steps of one physical model instance.
+pub struct SensorWorld {
+    materials: MaterialDb,
+    options: SceneOptions,
+    scene: Option<Scene>,
+    space: Option<Space>,
+    /// Scene builds + static rebuilds so far (diagnostics).
+    pub static_builds: u64,
+    /// Warnings of the last scene update (unusable model references etc.).
+    pub warnings: Vec<String>,
+}
+
+impl SensorWorld {
+    /// A world with the built-in materials database and default scene options.
+    pub fn new() -> SensorWorld {
+        SensorWorld::with(MaterialDb::builtin(), SceneOptions::default())
+    }
+
+    /// A world with a given materials database and scene options.
+    pub fn with(materials: MaterialDb, options: SceneOptions) -> SensorWorld {
+        SensorWorld {
+            materials,
+            options,
+            scene: None,
+            space: None,
+            static_builds: 0,
+            warnings: Vec::new(),
+        }
+    }
+
+    /// Forget the scene and space (next update rebuilds them).
+    pub fn reset(&mut self) {
+        self.scene = None;
+        self.space = None;
+    }
+
+    /// The scene of the last update.
+    pub fn scene(&self) -> Option<&Scene> {
+        self.scene.as_ref()
+    }
+
+    /// Bring the world to `view` and return this step's frame. `time_s` is the communication point
+    /// (used when the view carries no timestamp); `config` gives the fallback mounting and the
+    /// weather override; `sensor_id` the configured id (used when the view carries none).
+    pub fn update<'w>(
+        &'w mut self,
+        view: &osi3::SensorView,
+        config: &SensorConfig,
+        time_s: f64,
+        sensor_id: Option<u64>,
+    ) -> Result<WorldFrame<'w>, ModelError> {
+        let gt = view
+            .global_ground_truth
+            .as_ref()
+            .ok_or_else(|| ModelError::Input("the SensorView has no global_ground_truth".into()))?;
+        let host_id = view
+            .host_vehicle_id
+            .and_then(|i| i.value)
+            .or(gt.host_vehicle_id.and_then(|i| i.value));
+        let host = match host_id {
+            Some(hid) => Some(
+                gt.moving_object
+                    .iter()
+                    .find(|o| o.id.and_then(|i| i.value) == Some(hid))
+                    .ok_or_else(|| {
+                        ModelError::Input(format!(
+                            "host vehicle id {hid} is not among the ground truth's moving objects"
+                        ))
+                    })?,
+            ),
+            None => None,
+        };
+        let mounting = view
+            .mounting_position
+            .unwrap_or_else(|| config.mounting.to_osi());
+        let frame = SensorFrame::new(host, &mounting);
+        let timestamp = view
+            .timestamp
+            .or(gt.timestamp)
+            .unwrap_or_else(|| timestamp_from_seconds(time_s));
+
+        // Scene: build once, update afterwards.
+        let scene_err = |e: crate::environment::scene::SceneError| {
+            ModelError::Input(format!("scene from the ground truth: {e}"))
+        };
+        let mut rebuild_space = self.space.is_none();
+        match self.scene.as_mut() {
+            Some(scene) => {
+                let report = scene.update(gt).map_err(scene_err)?;
+                if report.static_rebuilt || report.rebased {
+                    rebuild_space = true;
+                    self.static_builds += 1;
+                }
+            }
+            None => {
+                let scene = SceneBuilder::new(self.materials.clone())
+                    .host_id(host_id)
+                    .options(self.options.clone())
+                    .build(gt)
+                    .map_err(scene_err)?;
+                self.scene = Some(scene);
+                self.static_builds += 1;
+                rebuild_space = true;
+            }
+        }
+        let scene = self.scene.as_ref().expect("scene built above");
+        self.warnings.clone_from(&scene.warnings);
+        let space_err = |e: crate::space::SpaceError| ModelError::Input(format!("space: {e}"));
+        if !rebuild_space {
+            let space = self.space.as_mut().expect("space exists");
+            if !space.sync_scene(scene).map_err(space_err)? {
+                rebuild_space = true;
+            }
+        }
+        if rebuild_space {
+            self.space = Some(SpaceBuilder::new().build_scene(scene).map_err(space_err)?);
+        }
+        let space = self.space.as_ref().expect("space built above");
+
+        let sensor_pose = Pose::new(scene.to_local(frame.pose.position), frame.pose.rotation);
+        let weather = match &config.weather {
+            Some(w) => *w,
+            None => weather_from_osi(gt.environmental_conditions.as_ref(), scene.wet),
+        };
+        Ok(WorldFrame {
+            scene,
+            space,
+            sensor_pose,
+            sensor_velocity_m_s: frame.velocity,
+            sensor_angular_velocity_rad_s: frame.angular_velocity,
+            frame,
+            weather,
+            time_s: osiris_proto::timestamp_to_seconds(&timestamp),
+            timestamp,
+            host_id,
+            mounting,
+            host_base: host.and_then(|h| h.base.clone()),
+            sensor_id: view
+                .sensor_id
+                .filter(|i| i.value.is_some())
+                .or(sensor_id.map(osiris_proto::id)),
+        })
+    }
+}
+
+impl Default for SensorWorld {
+    fn default() -> Self {
+        SensorWorld::new()
+    }
+}
+
+/// Representative weather for OSI's categorical `EnvironmentalConditions` (OSI carries rain and
+/// fog only as classes): the geometric mean of each class's limits (OSI 3.8.0
+/// `osi_environment.proto` class limits, see
+/// [`crate::environment::weather::osi_precipitation_category`] and
+/// [`crate::environment::weather::osi_fog_category`]); temperature (K) and relative humidity (%)
+/// when given. `wet` (the scene's road state) selects a wet road. Use the sensor configuration's
+/// `"weather"` key for exact values.
+pub fn weather_from_osi(env: Option<&osi3::EnvironmentalConditions>, wet: bool) -> Weather {
+    use osi3::environmental_conditions::{Fog as F, Precipitation as P};
+    let mut w = Weather::CLEAR;
+    if wet {
+        w.road = RoadWetness::Wet;
+    }
+    let Some(env) = env else { return w };
+    w.rain_mm_h = match env.precipitation.and_then(|p| P::try_from(p).ok()) {
+        Some(P::VeryLight) => (0.1f64 * 0.5).sqrt(),
+        Some(P::Light) => (0.5f64 * 1.9).sqrt(),
+        Some(P::Moderate) => (1.9f64 * 8.1).sqrt(),
+        Some(P::Heavy) => (8.1f64 * 34.0).sqrt(),
+        Some(P::VeryHeavy) => (34.0f64 * 149.0).sqrt(),
+        Some(P::Extreme) => 200.0,
+        _ => 0.0,
+    };
+    w.fog_visibility_m = match env.fog.and_then(|f| F::try_from(f).ok()) {
+        Some(F::GoodVisibility) => (10_000.0f64 * 40_000.0).sqrt(),
+        Some(F::ModerateVisibility) => (4_000.0f64 * 10_000.0).sqrt(),
+        Some(F::PoorVisibility) => (2_000.0f64 * 4_000.0).sqrt(),
+        Some(F::Mist) => (1_000.0f64 * 2_000.0).sqrt(),
+        Some(F::Light) => (200.0f64 * 1_000.0).sqrt(),
+        Some(F::Thick) => (50.0f64 * 200.0).sqrt(),
+        Some(F::Dense) => 30.0,
+        _ => f64::INFINITY,
+    };
+    if let Some(t_k) = env
+        .temperature
+        .filter(|t| t.is_finite() && *t > 200.0 && *t < 340.0)
+    {
+        w.temperature_c = t_k - 273.15;
+    }
+    if let Some(rh) = env
+        .relative_humidity
+        .filter(|h| h.is_finite() && (0.0..=100.0).contains(h))
+    {
+        w.relative_humidity = rh / 100.0;
+    }
+    w
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::environment::weather::{osi_fog_category, osi_precipitation_category};
+
+    #[test]
+    fn representative_weather_falls_in_its_osi_class() {
+        for rain in [0.3, 1.0, 5.0, 20.0, 80.0, 300.0] {
+            let env = osi3::EnvironmentalConditions {
+                precipitation: Some(osi_precipitation_category(rain) as i32),
+                ..Default::default()
+            };
+            let w = weather_from_osi(Some(&env), false);
+            assert_eq!(
+                osi_precipitation_category(w.rain_mm_h),
+                osi_precipitation_category(rain)
+            );
+        }
+        for vis in [20.0, 100.0, 500.0, 1500.0, 3000.0, 6000.0, 20_000.0] {
+            let env = osi3::EnvironmentalConditions {
+                fog: Some(osi_fog_category(vis) as i32),
+                ..Default::default()
+            };
+            let w = weather_from_osi(Some(&env), false);
+            assert_eq!(osi_fog_category(w.fog_visibility_m), osi_fog_category(vis));
+        }
+        assert_eq!(weather_from_osi(None, false), Weather::CLEAR);
+    }
+}
