@@ -683,9 +683,10 @@ impl Instance {
             let Some(v) = variables::find(VarType::String, r) else {
                 return Err(self.reject(F, &format!("unknown String value reference {r}")));
             };
-            let Start::String(start) = v.start else {
-                unreachable!("String parameters have a start")
-            };
+            let start = v
+                .start
+                .string(self.desc.kind)
+                .expect("String parameters have a start");
             let value = match r {
                 vr::string::CONFIG => self.p.config.as_deref(),
                 _ => self.p.mode.as_deref(),

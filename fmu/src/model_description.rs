@@ -163,7 +163,10 @@ fn render_with_guid(desc: &FmuDescriptor, guid: &str) -> String {
                 let value = v.start.real(desc.kind).expect("Real start");
                 format!(r#" start="{}""#, xml_double(value))
             }
-            Start::String(s) => format!(r#" start="{}""#, esc(s)),
+            Start::String(_) | Start::ModeDefault => {
+                let value = v.start.string(desc.kind).expect("String start");
+                format!(r#" start="{}""#, esc(value))
+            }
         };
         let unit = v
             .unit

@@ -15,7 +15,7 @@
 //! | Real | 1 | `fov_horizontal_rad` (rad) | parameter / fixed | idem |
 //! | Real | 2 | `fov_vertical_rad` (rad) | parameter / fixed | idem |
 //! | String | 0 | `config` | parameter / fixed | `"config.json"` |
-//! | String | 1 | `mode` | parameter / fixed | `"ideal"` |
+//! | String | 1 | `mode` | parameter / fixed | the kind's default mode (`SensorConfig::default_for(kind).mode`) |
 
 use osiris_models::{SensorConfig, SensorKind};
 use osiris_proto::{
@@ -207,6 +207,8 @@ pub enum Start {
     /// The sensor kind's built-in default (`SensorConfig::default_for(kind)`) of this key.
     RealDefault(RealParam),
     String(&'static str),
+    /// The sensor kind's built-in default model mode (`SensorConfig::default_for(kind).mode`).
+    ModeDefault,
 }
 
 impl Start {
@@ -214,6 +216,15 @@ impl Start {
     pub fn real(self, kind: SensorKind) -> Option<f64> {
         match self {
             Start::RealDefault(p) => Some(p.get(&SensorConfig::default_for(kind))),
+            _ => None,
+        }
+    }
+
+    /// The String start value for a sensor kind, if this is a String start.
+    pub fn string(self, kind: SensorKind) -> Option<&'static str> {
+        match self {
+            Start::String(s) => Some(s),
+            Start::ModeDefault => Some(SensorConfig::default_for(kind).mode.name()),
             _ => None,
         }
     }
@@ -494,7 +505,7 @@ pub static VARIABLES: [Variable; 22] = [
         causality: Causality::Parameter,
         variability: Variability::Fixed,
         initial: None,
-        start: Start::String("ideal"),
+        start: Start::ModeDefault,
         description: "Model to run: ideal or physical (overrides the config's mode when set)",
         unit: None,
         osmp: None,

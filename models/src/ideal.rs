@@ -1171,6 +1171,7 @@ impl SensorModel for IdealSensor {
                 p.radar = Some(perception::RadarPerception {
                     peak: peaks,
                     waveform: None,
+                    range_doppler_map: None,
                 });
             }
             SensorKind::Lidar => {
