@@ -5,6 +5,8 @@
 //!   writes SensorData traces, PerceptionData traces and a summary to `out/`.
 //! * `osiris package [--out DIR]`: builds `camera.fmu`, `radar.fmu`, `lidar.fmu` (default `target/fmu/`).
 //! * `osiris bench <what>`: one JSON line of figures per benchmark.
+//! * `osiris export <trace> --out <file>`: one frame of a PerceptionData trace as PCD/PLY (LiDAR) or
+//!   PNG/CSV (radar range-Doppler map).
 //! * `osiris scenario`: prints the built-in default scenario as JSON (a starting point for your own).
 //! * `osiris effects`: lists every named physical effect (name, default, formula, source).
 //! * `osiris model-description <sensor>`: prints a sensor FMU's modelDescription.xml.
@@ -64,6 +66,12 @@ pub enum BenchWhat {
     /// Ray tracing on a ≈1 M-triangle street: BVH build, top-level update, Mrays/s (coherent LiDAR
     /// pattern and random rays) on 1 and 2 threads.
     Space,
+    /// Physical LiDAR: VLS-128 full frames (≈230 k pulses) on the ≈1 M-triangle street, frames/s with
+    /// 1 and 7 sub-rays per pulse.
+    Lidar,
+    /// Physical radar: the full chain (2,000 paths → IF cube 256 × 128 × 12 → FFTs → CFAR → angles),
+    /// frames/s.
+    Radar,
 }
 
 #[derive(Debug, Subcommand)]
@@ -95,9 +103,25 @@ pub enum Command {
         /// Folder with the packaged FMUs (packaged there first if missing or stale); `fmu` only.
         #[arg(long, value_name = "DIR")]
         fmu_dir: Option<PathBuf>,
-        /// Thread counts to measure; `space` only.
+        /// Thread counts to measure (`space`); the largest is used by `lidar` and `radar`.
         #[arg(long, value_delimiter = ',', default_values_t = [1usize, 2])]
         threads: Vec<usize>,
+        /// Timed frames per measurement; `lidar` and `radar` (default 10 and 40).
+        #[arg(long)]
+        frames: Option<usize>,
+    },
+    /// Write one frame of a PerceptionData trace (`out/<sensor>.perception.osi`) as a file:
+    /// a LiDAR point cloud as `.pcd` / `.ply`, a radar range-Doppler map as `.png` / `.csv`.
+    Export {
+        /// PerceptionData trace written by `osiris run`.
+        #[arg(value_name = "TRACE")]
+        trace: PathBuf,
+        /// Output file; the extension selects the format (.pcd, .ply, .png, .csv).
+        #[arg(long, value_name = "FILE")]
+        out: PathBuf,
+        /// Frame index (0-based; default: the last frame that has the requested content).
+        #[arg(long, value_name = "N")]
+        frame: Option<usize>,
     },
     /// Print the built-in default scenario as JSON.
     Scenario,
@@ -175,20 +199,31 @@ pub fn main_with(cli: Cli) -> Result<()> {
             iterations,
             fmu_dir,
             threads,
+            frames,
         } => {
+            if threads.is_empty() || threads.contains(&0) {
+                bail!("--threads: give thread counts >= 1, e.g. 1,2");
+            }
+            let max_threads = threads.iter().copied().max();
             let figures = match what {
                 BenchWhat::Fmu => {
                     let fmu_dir = ensure_fmus(fmu_dir, &SensorKind::ALL)?;
                     crate::bench::bench_fmu(&fmu_dir, iterations)?
                 }
-                BenchWhat::Space => {
-                    if threads.is_empty() || threads.contains(&0) {
-                        bail!("--threads: give thread counts >= 1, e.g. 1,2");
-                    }
-                    osiris_models::space::bench::bench_space(&threads)
+                BenchWhat::Space => osiris_models::space::bench::bench_space(&threads),
+                BenchWhat::Lidar => {
+                    osiris_models::lidar::bench::bench_lidar(max_threads, frames.unwrap_or(10).max(1))
+                }
+                BenchWhat::Radar => {
+                    osiris_models::radar::bench::bench_radar(max_threads, frames.unwrap_or(40).max(1))
                 }
             };
             println!("{}", serde_json::to_string(&figures)?);
+            Ok(())
+        }
+        Command::Export { trace, out, frame } => {
+            let what = crate::export::export_frame(&trace, frame, &out)?;
+            eprintln!("{what}");
             Ok(())
         }
         Command::Scenario => {
