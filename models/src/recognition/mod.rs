@@ -5,7 +5,9 @@
 //!   classification, tracking.
 //! * [`radar`]: DBSCAN clustering, ego-motion compensation, ghost rejection, tracking.
 //! * [`tracking`]: Kalman-filter multi-object tracker shared by both.
+//! * [`common`]: object classes and the OSI output of a track.
 
+pub mod common;
 pub mod lidar;
 pub mod radar;
 pub mod tracking;
