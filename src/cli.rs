@@ -7,6 +7,8 @@
 //! * `osiris bench <what>`: one JSON line of figures per benchmark.
 //! * `osiris export <trace> --out <file>`: one frame of a PerceptionData trace as PCD/PLY (LiDAR) or
 //!   PNG/CSV (radar range-Doppler map).
+//! * `osiris consistency --meta <campaign>/consistency.toml --out <dir>`: model vs measurement
+//!   campaign, where it fails and which named effect explains it (summary.json, report.html).
 //! * `osiris scenario`: prints the built-in default scenario as JSON (a starting point for your own).
 //! * `osiris effects`: lists every named physical effect (name, default, formula, source).
 //! * `osiris model-description <sensor>`: prints a sensor FMU's modelDescription.xml.
@@ -123,6 +125,9 @@ pub enum Command {
         #[arg(long, value_name = "N")]
         frame: Option<usize>,
     },
+    /// Compare a model with a measurement campaign: paired residuals, metrics with tolerances,
+    /// attribution of the misfit to named physical effects; writes summary.json and report.html.
+    Consistency(crate::consistency::cli::ConsistencyArgs),
     /// Print the built-in default scenario as JSON.
     Scenario,
     /// List every named physical effect: name, default, formula, source.
@@ -226,6 +231,7 @@ pub fn main_with(cli: Cli) -> Result<()> {
             eprintln!("{what}");
             Ok(())
         }
+        Command::Consistency(args) => crate::consistency::cli::run(args),
         Command::Scenario => {
             println!("{}", ScenarioConfig::default().to_json_pretty());
             Ok(())

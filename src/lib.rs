@@ -6,9 +6,12 @@
 //! * [`package`]: builds `camera.fmu`, `radar.fmu`, `lidar.fmu`.
 //! * [`bench`]: `osiris bench <what>` figures.
 //! * [`cli`]: the `osiris` command line.
+//! * [`export`]: PerceptionData frames as PCD/PLY point clouds and range-Doppler PNGs.
 
 pub mod bench;
 pub mod cli;
+pub mod export;
+pub mod consistency;
 pub mod master;
 pub mod package;
 pub mod scenario;

@@ -1,0 +1,165 @@
+//! The consistency workflow (GitHub issue 7): compare a sensor model with measurements, show where
+//! it fails, name the missing physical effect, add it and watch the error fall.
+//!
+//! Method: `shared/reference/validation.md` (DIVP FY2019 consistency verification; Sensors 25(24):7642).
+//!
+//! * [`campaign`]: the `consistency.toml` contract (schema `osiris.consistency/1`).
+//! * [`pairing`]: trace loading, timestamp pairing, association (object id, gating fallback, LiDAR
+//!   beam id), paired residual rows with their explanatory variables, aggregation per station.
+//! * [`metrics`]: residual statistics with tolerances and bootstrap CIs, binned metrics, AVM/DVM/W1.
+//! * [`catalogue`] + `models/resources/consistency/{radar,lidar}.toml`: effect signatures.
+//! * [`attribution`]: noise model, nuisance baseline, tie check, forward selection, four gates, status.
+//! * [`simulate`]: re-simulation through `osiris_models::build_sensor` (the FMU's code path).
+//! * [`report`]: `summary.json` and the self-contained `report.html`.
+//! * [`history`]: the run registry behind `--history`.
+//! * [`truth`]: the independent truth generator used by the tests (closed-form physics, hidden effects).
+//! * [`cli`]: `osiris consistency`.
+
+pub mod attribution;
+pub mod campaign;
+pub mod catalogue;
+pub mod cli;
+pub mod expr;
+pub mod history;
+pub mod metrics;
+pub mod pairing;
+pub mod report;
+pub mod simulate;
+pub mod truth;
+
+/// Names of the explanatory variables of a residual row (index = position in [`Row::x`]); the
+/// catalogue's signature expressions use these names.
+pub const VAR_NAMES: [&str; NVARS] = [
+    "range",        // m, GT sensor→target centre
+    "azimuth",      // deg, sensor frame
+    "elevation",    // deg
+    "aspect",       // deg, angle between the target's facing axis (+x) and the line of sight
+    "area",         // m², face area (trihedral a², board w·h)
+    "edge",         // m, trihedral edge (0 if none)
+    "reflectivity", // %, diffuse reflectivity (0 if unknown)
+    "height",       // m, target height
+    "width",        // m, target width
+    "sim",          // simulated value of the quantity (dB / % / count)
+    "rain",         // mm/h
+    "fog_vis",      // m (1e9 when clear)
+    "prx",          // dB, received-power proxy of the simulation (SNR, or RCS − 40·log10 R)
+    "mount_h",      // m, sensor height above the ground (global z)
+];
+/// Number of explanatory variables.
+pub const NVARS: usize = 14;
+/// Index of `prx`.
+pub const V_PRX: usize = 12;
+/// Index of `range` in [`VAR_NAMES`].
+pub const V_RANGE: usize = 0;
+/// Index of `azimuth`.
+pub const V_AZIMUTH: usize = 1;
+/// Index of `aspect`.
+pub const V_ASPECT: usize = 3;
+/// Index of `reflectivity`.
+pub const V_REFLECTIVITY: usize = 6;
+/// Index of `sim`.
+pub const V_SIM: usize = 9;
+
+/// Residual quantities (natural units in the id).
+pub mod quantity {
+    /// Radar/LiDAR range, m.
+    pub const RANGE_M: &str = "range_m";
+    /// Radar radial velocity, km/h (OSI sign: positive towards the sensor).
+    pub const RADIAL_VELOCITY_KMH: &str = "radial_velocity_kmh";
+    /// Radar azimuth, deg.
+    pub const AZIMUTH_DEG: &str = "azimuth_deg";
+    /// Radar power quantity (RCS estimate dBsm or SNR dB per `quantity_semantics`), dB.
+    pub const POWER_DB: &str = "power_db";
+    /// LiDAR intensity, % (metrics).
+    pub const INTENSITY_PCT: &str = "intensity_pct";
+    /// LiDAR intensity ratio meas/sim, dB (attribution of multiplicative effects).
+    pub const INTENSITY_DB: &str = "intensity_db";
+    /// LiDAR points on target per target and frame, ln((meas+½)/(sim+½)).
+    pub const POINTS_LOG_RATIO: &str = "points_log_ratio";
+    /// LiDAR points on target per target and frame, relative error % (metrics).
+    pub const POINTS_ON_TARGET_PCT: &str = "points_on_target_pct";
+    /// LiDAR points in depth gaps (no target id) per frame, count.
+    pub const GAP_POINTS: &str = "gap_points";
+}
+
+/// One paired residual: measured and simulated value of a quantity for one target in one frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Row {
+    /// Quantity id ([`quantity`]).
+    pub quantity: &'static str,
+    /// Index of the frame pair.
+    pub frame: usize,
+    /// Timestamp, s.
+    pub time_s: f64,
+    /// Ground-truth target id (0 for frame-level quantities).
+    pub target: u64,
+    /// Station: target × (quantised) geometry; repeated frames of one station are replicates.
+    pub station: u64,
+    pub meas: f64,
+    pub sim: f64,
+    /// Explanatory variables ([`VAR_NAMES`]).
+    pub x: [f64; NVARS],
+}
+
+impl Row {
+    /// meas − sim.
+    pub fn resid(&self) -> f64 {
+        self.meas - self.sim
+    }
+}
+
+/// The tolerance of a quantity in its natural unit.
+pub fn tolerance_of(q: &str, t: &campaign::Tolerances) -> f64 {
+    match q {
+        quantity::RANGE_M => t.range_m,
+        quantity::RADIAL_VELOCITY_KMH => t.radial_velocity_kmh,
+        quantity::AZIMUTH_DEG => t.azimuth_deg,
+        quantity::POWER_DB => t.power_db,
+        quantity::INTENSITY_PCT => t.intensity_pct,
+        quantity::INTENSITY_DB => t.intensity_db,
+        quantity::POINTS_ON_TARGET_PCT => t.points_on_target_pct,
+        quantity::POINTS_LOG_RATIO => (1.0 + t.points_on_target_pct / 100.0).ln(),
+        quantity::GAP_POINTS => t.gap_points,
+        _ => f64::INFINITY,
+    }
+}
+
+/// Quantities the attribution runs on, per sensor.
+pub fn attribution_quantities(kind: campaign::CampaignSensor) -> &'static [&'static str] {
+    match kind {
+        campaign::CampaignSensor::Radar => &[
+            quantity::POWER_DB,
+            quantity::RANGE_M,
+            quantity::AZIMUTH_DEG,
+            quantity::RADIAL_VELOCITY_KMH,
+        ],
+        campaign::CampaignSensor::Lidar => &[
+            quantity::INTENSITY_DB,
+            quantity::RANGE_M,
+            quantity::POINTS_LOG_RATIO,
+            quantity::GAP_POINTS,
+        ],
+        campaign::CampaignSensor::Camera => &[],
+    }
+}
+
+/// Quantities with a tolerance check (the verdict table), per sensor.
+pub fn metric_quantities(kind: campaign::CampaignSensor) -> &'static [&'static str] {
+    match kind {
+        campaign::CampaignSensor::Radar => &[
+            quantity::RANGE_M,
+            quantity::RADIAL_VELOCITY_KMH,
+            quantity::AZIMUTH_DEG,
+            quantity::POWER_DB,
+        ],
+        campaign::CampaignSensor::Lidar => &[
+            quantity::RANGE_M,
+            quantity::INTENSITY_PCT,
+            quantity::POINTS_ON_TARGET_PCT,
+            quantity::GAP_POINTS,
+        ],
+        campaign::CampaignSensor::Camera => &[],
+    }
+}
+
+pub use cli::{ConsistencyArgs, run};

@@ -1,0 +1,710 @@
+//! Trace loading, timestamp pairing, association and paired residual rows.
+//!
+//! * A measured SensorData frame pairs with the SensorView of the same timestamp (±0.5 ms); frames
+//!   missing from the measurement are counted, not errors. The simulated frame is the one with the
+//!   same timestamp.
+//! * Radar: per target and frame, the measured and the simulated detection carrying the target's
+//!   object id (nearest to the ground-truth range when several); with `method = "gating"`, or when a
+//!   trace carries no object ids, the detection nearest to the ground-truth position inside a gate.
+//! * LiDAR: measured and simulated points pair by `beam_id` (same beam, same target, nearest range);
+//!   points on target per target and frame; points in depth gaps (no target, above the ground) per
+//!   frame.
+//! * Explanatory variables come from the ground truth (not from the noisy detections), so residuals
+//!   are not regressed on noisy abscissae.
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::Path;
+
+use anyhow::{Context, Result, bail};
+use glam::DVec3;
+use osiris_models::frames::{Pose, SensorFrame, moving_object_pose, stationary_object_pose};
+use osiris_proto::osi3;
+
+use super::campaign::{AssociationMethod, Campaign, CampaignSensor};
+use super::{NVARS, Row, quantity};
+
+/// LiDAR: paired points per target and frame at most.
+pub const MAX_POINTS_PER_TARGET: usize = 48;
+
+/// Frame-pairing tolerance, ns.
+const PAIR_TOL_NS: i128 = 500_000;
+
+/// Counts for detection probability and false alarms.
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+pub struct DetectionCounts {
+    /// Target-frames where the simulation detected the target.
+    pub sim_detected: usize,
+    /// Target-frames where the measurement detected the target.
+    pub meas_detected: usize,
+    /// Target-frames detected by both.
+    pub both: usize,
+    /// Target-frames considered (target in a paired frame).
+    pub opportunities: usize,
+    /// Measured detections / points not associated with any target.
+    pub meas_unassociated: usize,
+    /// Simulated detections / points not associated with any target.
+    pub sim_unassociated: usize,
+}
+
+/// The paired data of a campaign.
+#[derive(Debug, Clone, Default)]
+pub struct Paired {
+    pub rows: Vec<Row>,
+    /// SensorView frames.
+    pub views: usize,
+    /// Measured frames paired with a view and a simulated frame.
+    pub paired_frames: usize,
+    /// Views without a measured frame (missing from the measurement).
+    pub missing_meas_frames: usize,
+    /// Measured frames without a simulated frame.
+    pub missing_sim_frames: usize,
+    pub counts: DetectionCounts,
+    /// All measured / simulated values per quantity (paired or not), for distribution metrics.
+    pub meas_values: BTreeMap<&'static str, Vec<f64>>,
+    pub sim_values: BTreeMap<&'static str, Vec<f64>>,
+    pub warnings: Vec<String>,
+}
+
+/// Reads a whole `.osi` trace of `M`.
+pub fn read_trace<M: prost::Message + Default>(path: &Path, what: &str) -> Result<Vec<M>> {
+    crate::trace::read_messages::<M>(path)
+        .with_context(|| format!("cannot read the {what} trace `{}`", path.display()))
+}
+
+/// Timestamp in ns.
+pub fn ts_ns(ts: Option<&osi3::Timestamp>) -> Option<i128> {
+    ts.map(|t| {
+        i128::from(t.seconds.unwrap_or(0)) * 1_000_000_000 + i128::from(t.nanos.unwrap_or(0))
+    })
+}
+
+fn view_ts(v: &osi3::SensorView) -> Option<i128> {
+    ts_ns(
+        v.timestamp.as_ref().or(v
+            .global_ground_truth
+            .as_ref()
+            .and_then(|g| g.timestamp.as_ref())),
+    )
+}
+
+/// Index of the entry of `sorted` (timestamp, index) nearest to `t` within the tolerance.
+fn find_ts(sorted: &[(i128, usize)], t: i128) -> Option<usize> {
+    let pos = sorted.partition_point(|(s, _)| *s < t);
+    let mut best: Option<(i128, usize)> = None;
+    for cand in [pos.checked_sub(1), Some(pos)].into_iter().flatten() {
+        if let Some(&(s, i)) = sorted.get(cand) {
+            let d = (s - t).abs();
+            if d <= PAIR_TOL_NS && best.is_none_or(|(bd, _)| d < bd) {
+                best = Some((d, i));
+            }
+        }
+    }
+    best.map(|(_, i)| i)
+}
+
+fn sorted_ts<T>(items: &[T], ts: impl Fn(&T) -> Option<i128>) -> Vec<(i128, usize)> {
+    let mut v: Vec<(i128, usize)> = items
+        .iter()
+        .enumerate()
+        .filter_map(|(i, m)| ts(m).map(|t| (t, i)))
+        .collect();
+    v.sort();
+    v
+}
+
+/// Geometry of one target in one frame, from the ground truth.
+#[derive(Debug, Clone, Copy)]
+pub struct TargetGeometry {
+    pub id: u64,
+    /// Target centre in the sensor frame, m.
+    pub centre_s: DVec3,
+    pub range_m: f64,
+    pub azimuth_deg: f64,
+    pub elevation_deg: f64,
+    /// Angle between the target's +x axis and the direction to the sensor, deg.
+    pub aspect_deg: f64,
+    /// Box dimensions (length, width, height), m.
+    pub dims: DVec3,
+    /// Target pose (global).
+    pub pose: Pose,
+}
+
+struct FrameGeom {
+    sensor: SensorFrame,
+    targets: Vec<TargetGeometry>,
+}
+
+fn frame_geometry(campaign: &Campaign, view: &osi3::SensorView) -> Result<FrameGeom> {
+    let gt = view
+        .global_ground_truth
+        .as_ref()
+        .context("a SensorView has no global_ground_truth")?;
+    let host_id = view
+        .host_vehicle_id
+        .and_then(|i| i.value)
+        .or(gt.host_vehicle_id.and_then(|i| i.value));
+    let host = host_id.and_then(|h| {
+        gt.moving_object
+            .iter()
+            .find(|o| o.id.and_then(|i| i.value) == Some(h))
+    });
+    let mounting = view.mounting_position.unwrap_or_else(|| {
+        osiris_models::sensor::Mounting {
+            position_m: campaign.sensor.mounting_position_m,
+            orientation_rad: campaign.sensor.mounting_orientation_rad,
+        }
+        .to_osi()
+    });
+    let sensor = SensorFrame::new(host, &mounting);
+    let mut objects: Vec<(u64, Pose, DVec3)> = Vec::new();
+    let dims = |d: Option<&osi3::Dimension3d>| {
+        d.map(|d| {
+            DVec3::new(
+                d.length.unwrap_or(0.0),
+                d.width.unwrap_or(0.0),
+                d.height.unwrap_or(0.0),
+            )
+        })
+        .unwrap_or(DVec3::ZERO)
+    };
+    for o in &gt.moving_object {
+        let Some(id) = o.id.and_then(|i| i.value) else {
+            continue;
+        };
+        if Some(id) == host_id {
+            continue;
+        }
+        objects.push((
+            id,
+            moving_object_pose(o),
+            dims(o.base.as_ref().and_then(|b| b.dimension.as_ref())),
+        ));
+    }
+    for o in &gt.stationary_object {
+        let Some(id) = o.id.and_then(|i| i.value) else {
+            continue;
+        };
+        objects.push((
+            id,
+            stationary_object_pose(o),
+            dims(o.base.as_ref().and_then(|b| b.dimension.as_ref())),
+        ));
+    }
+    let wanted: Vec<u64> = if campaign.targets.is_empty() {
+        objects.iter().map(|o| o.0).collect()
+    } else {
+        campaign.targets.iter().map(|t| t.id).collect()
+    };
+    let s_pos = sensor.pose.position;
+    let mut targets = Vec::new();
+    for (id, pose, dims) in objects {
+        if !wanted.contains(&id) {
+            continue;
+        }
+        let c = sensor.point_to_sensor(pose.position);
+        let range = c.length();
+        let facing = pose.transform_vector(DVec3::X);
+        let to_sensor = (s_pos - pose.position).normalize_or_zero();
+        targets.push(TargetGeometry {
+            id,
+            centre_s: c,
+            range_m: range,
+            azimuth_deg: c.y.atan2(c.x).to_degrees(),
+            elevation_deg: c.z.atan2(c.x.hypot(c.y)).to_degrees(),
+            aspect_deg: facing.dot(to_sensor).clamp(-1.0, 1.0).acos().to_degrees(),
+            dims,
+            pose,
+        });
+    }
+    Ok(FrameGeom { sensor, targets })
+}
+
+fn station_key(target: u64, a: f64, b: f64) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    target.hash(&mut h);
+    ((a / 0.25).round() as i64).hash(&mut h);
+    ((b / 0.5).round() as i64).hash(&mut h);
+    h.finish()
+}
+
+fn vars(campaign: &Campaign, geom: &FrameGeom, g: &TargetGeometry) -> [f64; NVARS] {
+    let t = campaign.target(g.id);
+    let area = t.and_then(|t| t.area_m2()).unwrap_or(g.dims.y * g.dims.z);
+    let fog = campaign.environment.fog_visibility_m;
+    [
+        g.range_m,
+        g.azimuth_deg,
+        g.elevation_deg,
+        g.aspect_deg,
+        area,
+        t.and_then(|t| t.edge_m).unwrap_or(0.0),
+        t.and_then(|t| t.reflectivity_pct).unwrap_or(0.0),
+        t.and_then(|t| t.size_m).map(|s| s[1]).unwrap_or(g.dims.z),
+        t.and_then(|t| t.size_m).map(|s| s[0]).unwrap_or(g.dims.y),
+        0.0,
+        campaign.environment.rain_mm_h,
+        if fog.is_finite() { fog } else { 1e9 },
+        0.0,
+        geom.sensor.pose.position.z,
+    ]
+}
+
+/// Loads the traces of a campaign (`sim` = the simulated SensorData) and pairs them.
+pub fn load_and_pair(campaign: &Campaign, sim: &[osi3::SensorData]) -> Result<Paired> {
+    let views: Vec<osi3::SensorView> = read_trace(&campaign.sensor_view, "SensorView")?;
+    let meas: Vec<osi3::SensorData> = read_trace(&campaign.sensor_data, "measured SensorData")?;
+    pair(campaign, &views, &meas, sim)
+}
+
+/// Pairs views, measured and simulated frames by timestamp and builds the residual rows.
+pub fn pair(
+    campaign: &Campaign,
+    views: &[osi3::SensorView],
+    meas: &[osi3::SensorData],
+    sim: &[osi3::SensorData],
+) -> Result<Paired> {
+    let mut out = Paired {
+        views: views.len(),
+        ..Default::default()
+    };
+    let view_idx = sorted_ts(views, view_ts);
+    if view_idx.len() < views.len() {
+        out.warnings.push(format!(
+            "{} SensorView frame(s) without a timestamp ignored",
+            views.len() - view_idx.len()
+        ));
+    }
+    let sim_idx = sorted_ts(sim, |d| ts_ns(d.timestamp.as_ref()));
+    let mut used_views = vec![false; views.len()];
+    let meas_idx = sorted_ts(meas, |d| ts_ns(d.timestamp.as_ref()));
+    if meas_idx.is_empty() {
+        bail!("the measured SensorData trace has no frame with a timestamp");
+    }
+    let osi_id = campaign.sensor.osi_sensor_id;
+    let mut frame = 0usize;
+    for &(t, mi) in &meas_idx {
+        let md = &meas[mi];
+        if let (Some(want), Some(got)) = (osi_id, md.sensor_id.and_then(|i| i.value))
+            && want != got
+        {
+            continue;
+        }
+        let Some(vi) = find_ts(&view_idx, t) else {
+            out.warnings.push(format!(
+                "measured frame at t = {:.6} s has no SensorView",
+                t as f64 * 1e-9
+            ));
+            continue;
+        };
+        used_views[vi] = true;
+        let Some(si) = find_ts(&sim_idx, t) else {
+            out.missing_sim_frames += 1;
+            continue;
+        };
+        let geom = frame_geometry(campaign, &views[vi])?;
+        let time_s = t as f64 * 1e-9;
+        match campaign.sensor.kind {
+            CampaignSensor::Radar => {
+                radar_frame(campaign, &geom, md, &sim[si], frame, time_s, &mut out)
+            }
+            CampaignSensor::Lidar => {
+                lidar_frame(campaign, &geom, md, &sim[si], frame, time_s, &mut out)
+            }
+            CampaignSensor::Camera => {
+                bail!("camera campaigns are not supported yet (radar and lidar are)")
+            }
+        }
+        frame += 1;
+    }
+    out.paired_frames = frame;
+    out.missing_meas_frames = used_views.iter().filter(|u| !**u).count();
+    if frame == 0 {
+        bail!(
+            "no measured frame could be paired with a SensorView and a simulated frame (timestamps differ?)"
+        );
+    }
+    Ok(out)
+}
+
+fn oid(i: Option<osi3::Identifier>) -> Option<u64> {
+    i.and_then(|i| i.value)
+        .filter(|&v| v != osiris_proto::INVALID_ID)
+}
+
+fn radar_power(campaign: &Campaign, d: &osi3::RadarDetection) -> Option<f64> {
+    let sem = &campaign.sensor.quantity_semantics;
+    if sem.contains_key("rcs") {
+        d.rcs
+    } else if sem.contains_key("snr") {
+        d.snr
+    } else {
+        d.rcs.or(d.snr)
+    }
+}
+
+fn radar_frame(
+    campaign: &Campaign,
+    geom: &FrameGeom,
+    md: &osi3::SensorData,
+    sd: &osi3::SensorData,
+    frame: usize,
+    time_s: f64,
+    out: &mut Paired,
+) {
+    let rcs_semantics = campaign.sensor.quantity_semantics.contains_key("rcs")
+        || !campaign.sensor.quantity_semantics.contains_key("snr");
+    let dets = |d: &osi3::SensorData| -> Vec<osi3::RadarDetection> {
+        d.feature_data
+            .as_ref()
+            .and_then(|f| f.radar_sensor.first())
+            .map(|r| r.detection.clone())
+            .unwrap_or_default()
+    };
+    let (m, s) = (dets(md), dets(sd));
+    for (name, list) in [("meas", &m), ("sim", &s)] {
+        let values = if name == "meas" {
+            &mut out.meas_values
+        } else {
+            &mut out.sim_values
+        };
+        for d in list.iter() {
+            if let Some(p) = radar_power(campaign, d) {
+                values.entry(quantity::POWER_DB).or_default().push(p);
+            }
+        }
+    }
+    let by_id = |list: &[osi3::RadarDetection]| list.iter().any(|d| oid(d.object_id).is_some());
+    let use_ids = campaign.association.method == AssociationMethod::ObjectId;
+    let (m_ids, s_ids) = (use_ids && by_id(&m), use_ids && by_id(&s));
+    let mut m_used = vec![false; m.len()];
+    let mut s_used = vec![false; s.len()];
+    let pick = |list: &[osi3::RadarDetection],
+                used: &mut [bool],
+                ids: bool,
+                g: &TargetGeometry|
+     -> Option<usize> {
+        let mut best: Option<(f64, usize)> = None;
+        for (i, d) in list.iter().enumerate() {
+            if used[i] {
+                continue;
+            }
+            let Some(p) = d.position else { continue };
+            let r = p.distance.unwrap_or(f64::NAN);
+            let az = p.azimuth.unwrap_or(0.0).to_degrees();
+            let cost = if ids {
+                if oid(d.object_id) != Some(g.id) {
+                    continue;
+                }
+                (r - g.range_m).abs()
+            } else {
+                // Gate: 2 m + 5 % in range, 3° in azimuth.
+                let dr = (r - g.range_m) / (2.0 + 0.05 * g.range_m);
+                let da = (az - g.azimuth_deg) / 3.0;
+                let c = dr * dr + da * da;
+                if c.is_nan() || c > 1.0 {
+                    continue;
+                }
+                c
+            };
+            if best.is_none_or(|(b, _)| cost < b) {
+                best = Some((cost, i));
+            }
+        }
+        let i = best.map(|(_, i)| i)?;
+        used[i] = true;
+        Some(i)
+    };
+    for g in &geom.targets {
+        out.counts.opportunities += 1;
+        let mi = pick(&m, &mut m_used, m_ids, g);
+        let si = pick(&s, &mut s_used, s_ids, g);
+        out.counts.meas_detected += usize::from(mi.is_some());
+        out.counts.sim_detected += usize::from(si.is_some());
+        let (Some(mi), Some(si)) = (mi, si) else {
+            continue;
+        };
+        out.counts.both += 1;
+        let (a, b) = (&m[mi], &s[si]);
+        let (Some(pa), Some(pb)) = (a.position, b.position) else {
+            continue;
+        };
+        let x = vars(campaign, geom, g);
+        let station = station_key(g.id, g.range_m, g.azimuth_deg);
+        let mut push = |q: &'static str, meas: Option<f64>, sim: Option<f64>| {
+            if let (Some(mv), Some(sv)) = (meas, sim)
+                && mv.is_finite()
+                && sv.is_finite()
+            {
+                let mut x = x;
+                x[super::V_SIM] = sv;
+                x[super::V_PRX] = if q == quantity::POWER_DB && rcs_semantics {
+                    sv - 40.0 * g.range_m.max(1e-3).log10()
+                } else {
+                    sv
+                };
+                out.rows.push(Row {
+                    quantity: q,
+                    frame,
+                    time_s,
+                    target: g.id,
+                    station,
+                    meas: mv,
+                    sim: sv,
+                    x,
+                });
+            }
+        };
+        push(quantity::RANGE_M, pa.distance, pb.distance);
+        push(
+            quantity::AZIMUTH_DEG,
+            pa.azimuth.map(f64::to_degrees),
+            pb.azimuth.map(|v| v.to_degrees()),
+        );
+        push(
+            quantity::RADIAL_VELOCITY_KMH,
+            a.radial_velocity.map(|v| v * 3.6),
+            b.radial_velocity.map(|v| v * 3.6),
+        );
+        push(
+            quantity::POWER_DB,
+            radar_power(campaign, a),
+            radar_power(campaign, b),
+        );
+    }
+    out.counts.meas_unassociated += m_used.iter().filter(|u| !**u).count();
+    out.counts.sim_unassociated += s_used.iter().filter(|u| !**u).count();
+}
+
+/// Which target a LiDAR point belongs to: its object id (when associating by id and present), else
+/// the target whose box (inflated by 0.2 m) contains it.
+fn lidar_target(
+    campaign: &Campaign,
+    geom: &FrameGeom,
+    d: &osi3::LidarDetection,
+    use_ids: bool,
+) -> Option<usize> {
+    if use_ids {
+        if let Some(id) = oid(d.object_id) {
+            return geom.targets.iter().position(|t| t.id == id);
+        }
+        return None;
+    }
+    let _ = campaign;
+    let p = osiris_models::frames::Spherical::from_osi(d.position.as_ref()?).to_cartesian();
+    let g = geom.sensor.point_to_global(p);
+    geom.targets.iter().position(|t| {
+        let l = t.pose.inverse_transform_point(g);
+        let h = t.dims * 0.5 + DVec3::splat(0.2);
+        l.x.abs() <= h.x && l.y.abs() <= h.y && l.z.abs() <= h.z
+    })
+}
+
+fn lidar_frame(
+    campaign: &Campaign,
+    geom: &FrameGeom,
+    md: &osi3::SensorData,
+    sd: &osi3::SensorData,
+    frame: usize,
+    time_s: f64,
+    out: &mut Paired,
+) {
+    let dets = |d: &osi3::SensorData| -> Vec<osi3::LidarDetection> {
+        d.feature_data
+            .as_ref()
+            .and_then(|f| f.lidar_sensor.first())
+            .map(|r| r.detection.clone())
+            .unwrap_or_default()
+    };
+    let (m, s) = (dets(md), dets(sd));
+    let has_ids = |l: &[osi3::LidarDetection]| l.iter().any(|d| oid(d.object_id).is_some());
+    let use_ids =
+        campaign.association.method == AssociationMethod::ObjectId && has_ids(&m) && has_ids(&s);
+    let m_t: Vec<Option<usize>> = m
+        .iter()
+        .map(|d| lidar_target(campaign, geom, d, use_ids))
+        .collect();
+    let s_t: Vec<Option<usize>> = s
+        .iter()
+        .map(|d| lidar_target(campaign, geom, d, use_ids))
+        .collect();
+    for (list, tg, values) in [
+        (&m, &m_t, &mut out.meas_values),
+        (&s, &s_t, &mut out.sim_values),
+    ] {
+        for (d, t) in list.iter().zip(tg) {
+            if t.is_some()
+                && let Some(i) = d.intensity
+            {
+                values.entry(quantity::INTENSITY_PCT).or_default().push(i);
+            }
+        }
+    }
+    // Points on target and gap points.
+    let nt = geom.targets.len();
+    let mut m_count = vec![0usize; nt];
+    let mut s_count = vec![0usize; nt];
+    let above_ground = |d: &osi3::LidarDetection| -> bool {
+        d.position
+            .as_ref()
+            .map(|p| {
+                let c = osiris_models::frames::Spherical::from_osi(p).to_cartesian();
+                geom.sensor.point_to_global(c).z > 0.3
+            })
+            .unwrap_or(false)
+    };
+    let (mut m_gap, mut s_gap) = (0usize, 0usize);
+    for (d, t) in m.iter().zip(&m_t) {
+        match t {
+            Some(i) => m_count[*i] += 1,
+            None if above_ground(d) => m_gap += 1,
+            None => {}
+        }
+    }
+    for (d, t) in s.iter().zip(&s_t) {
+        match t {
+            Some(i) => s_count[*i] += 1,
+            None if above_ground(d) => s_gap += 1,
+            None => {}
+        }
+    }
+    out.counts.meas_unassociated += m_gap;
+    out.counts.sim_unassociated += s_gap;
+    let mut frame_x = [0.0; NVARS];
+    frame_x[super::V_RANGE] = geom.targets.iter().map(|t| t.range_m).fold(0.0, f64::max);
+    frame_x[10] = campaign.environment.rain_mm_h;
+    frame_x[11] = if campaign.environment.fog_visibility_m.is_finite() {
+        campaign.environment.fog_visibility_m
+    } else {
+        1e9
+    };
+    let sp = geom.sensor.pose.position;
+    frame_x[super::V_SIM] = s_gap as f64;
+    out.rows.push(Row {
+        quantity: quantity::GAP_POINTS,
+        frame,
+        time_s,
+        target: 0,
+        station: station_key(0, sp.x + 1000.0 * sp.y, sp.z),
+        meas: m_gap as f64,
+        sim: s_gap as f64,
+        x: frame_x,
+    });
+    for (i, g) in geom.targets.iter().enumerate() {
+        out.counts.opportunities += 1;
+        out.counts.meas_detected += usize::from(m_count[i] > 0);
+        out.counts.sim_detected += usize::from(s_count[i] > 0);
+        out.counts.both += usize::from(m_count[i] > 0 && s_count[i] > 0);
+        if m_count[i] == 0 && s_count[i] == 0 {
+            continue;
+        }
+        let mut x = vars(campaign, geom, g);
+        let station = station_key(g.id, g.range_m, g.azimuth_deg);
+        let (mc, sc) = (m_count[i] as f64, s_count[i] as f64);
+        x[super::V_SIM] = (sc + 0.5).ln();
+        out.rows.push(Row {
+            quantity: quantity::POINTS_LOG_RATIO,
+            frame,
+            time_s,
+            target: g.id,
+            station,
+            meas: (mc + 0.5).ln(),
+            sim: (sc + 0.5).ln(),
+            x,
+        });
+        if sc > 0.0 {
+            x[super::V_SIM] = 100.0;
+            out.rows.push(Row {
+                quantity: quantity::POINTS_ON_TARGET_PCT,
+                frame,
+                time_s,
+                target: g.id,
+                station,
+                meas: 100.0 * mc / sc,
+                sim: 100.0,
+                x,
+            });
+        }
+    }
+    // Beam-id pairing of points on targets.
+    if campaign.association.pairing != "beam_id" {
+        return;
+    }
+    let mut sim_by_beam: HashMap<u64, Vec<usize>> = HashMap::new();
+    for (j, d) in s.iter().enumerate() {
+        if let (Some(b), Some(_)) = (d.beam_id.and_then(|b| b.value), s_t[j]) {
+            sim_by_beam.entry(b).or_default().push(j);
+        }
+    }
+    if sim_by_beam.is_empty() && !s.is_empty() && frame == 0 {
+        out.warnings
+            .push("simulated LiDAR points carry no beam_id: point pairing skipped".into());
+    }
+    // At most MAX_POINTS_PER_TARGET measured points per target and frame are paired, spread
+    // evenly over the target's points (a statistical sample keeps near-range targets from
+    // swamping the rows).
+    let mut seen = vec![0usize; nt];
+    for (i, d) in m.iter().enumerate() {
+        let (Some(ti), Some(b)) = (m_t[i], d.beam_id.and_then(|b| b.value)) else {
+            continue;
+        };
+        seen[ti] += 1;
+        let stride = m_count[ti].div_ceil(MAX_POINTS_PER_TARGET).max(1);
+        if !(seen[ti] - 1).is_multiple_of(stride) {
+            continue;
+        }
+        let Some(cands) = sim_by_beam.get(&b) else {
+            continue;
+        };
+        let rm = d.position.and_then(|p| p.distance).unwrap_or(f64::NAN);
+        let Some(&j) = cands
+            .iter()
+            .filter(|&&j| s_t[j] == Some(ti))
+            .min_by(|&&a, &&b2| {
+                let da = (s[a].position.and_then(|p| p.distance).unwrap_or(f64::NAN) - rm).abs();
+                let db = (s[b2].position.and_then(|p| p.distance).unwrap_or(f64::NAN) - rm).abs();
+                da.total_cmp(&db)
+            })
+        else {
+            continue;
+        };
+        let g = &geom.targets[ti];
+        let x0 = vars(campaign, geom, g);
+        let station = station_key(g.id, g.range_m, g.azimuth_deg);
+        let rs = s[j].position.and_then(|p| p.distance).unwrap_or(f64::NAN);
+        let mut push = |q: &'static str, mv: f64, sv: f64| {
+            if mv.is_finite() && sv.is_finite() {
+                let mut x = x0;
+                x[super::V_SIM] = sv;
+                out.rows.push(Row {
+                    quantity: q,
+                    frame,
+                    time_s,
+                    target: g.id,
+                    station,
+                    meas: mv,
+                    sim: sv,
+                    x,
+                });
+            }
+        };
+        push(quantity::RANGE_M, rm, rs);
+        if let (Some(im), Some(is)) = (d.intensity, s[j].intensity) {
+            push(quantity::INTENSITY_PCT, im, is);
+            // Ratio in dB; the `sim` variable of this row is the simulated intensity in %.
+            let db = 10.0 * (im.max(0.01) / is.max(0.01)).log10();
+            let mut x = x0;
+            x[super::V_SIM] = is;
+            out.rows.push(Row {
+                quantity: quantity::INTENSITY_DB,
+                frame,
+                time_s,
+                target: g.id,
+                station,
+                meas: db,
+                sim: 0.0,
+                x,
+            });
+        }
+    }
+}
