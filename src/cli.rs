@@ -173,6 +173,10 @@ pub struct RunArgs {
     /// Step the sensors of a frame in parallel threads.
     #[arg(long)]
     pub parallel: bool,
+    /// Step every sensor at every frame (default: each sensor at its own cycle, the FMU's default
+    /// step size, rounded to a multiple of the frame step).
+    #[arg(long)]
+    pub every_frame: bool,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -486,6 +490,7 @@ fn run(args: RunArgs) -> Result<()> {
     let options = RunOptions {
         step_size: args.step_size,
         parallel: args.parallel,
+        multi_rate: !args.every_frame,
     };
     let summary = crate::master::run(
         &mut sensors,
@@ -519,8 +524,8 @@ fn run(args: RunArgs) -> Result<()> {
         w.flush()?;
     }
     for (i, s) in stats.iter_mut().enumerate() {
-        s.wall_ms_per_sensor_step =
-            1e3 * elapsed_s / (summary.frames.max(1) * run_sensors.len()) as f64;
+        let steps: usize = summary.sensor_data_frames.iter().sum::<usize>().max(1);
+        s.wall_ms_per_sensor_step = 1e3 * elapsed_s / steps as f64;
         debug_assert_eq!(summary.sensor_data_frames[i], s.frames_with_sensor_data);
     }
     for sensor in &mut sensors {

@@ -741,6 +741,44 @@ fn load_from_zip_and_clean_up() {
 }
 
 #[test]
+fn multi_rate_steps_each_sensor_at_its_own_cycle() {
+    // The mock's DefaultExperiment stepSize is 0.02 s; frames every 0.005 s: the sensor steps at
+    // every 4th frame with h = 0.02 s, so its communication points stay contiguous.
+    let dir = mock_fmu_dir(GUID);
+    let fmu = Fmu::from_dir(dir.path()).unwrap();
+    let mut sensors = vec![OsmpSensor::instantiate(&fmu, "s", quiet()).unwrap()];
+    sensors[0].initialize(10.0, &[]).unwrap();
+    let frames = (0..12u64).map(|f| {
+        Ok::<_, Infallible>(Frame::shared(
+            10.0 + f as f64 * 0.005,
+            sensor_view(f).encode_to_vec(),
+        ))
+    });
+    let mut seen = Vec::new();
+    let summary = run(
+        &mut sensors,
+        frames,
+        &RunOptions {
+            multi_rate: true,
+            ..RunOptions::default()
+        },
+        |r: StepRecord<'_>| {
+            seen.push((r.frame_index, r.time, r.step_size));
+            Ok::<_, Infallible>(())
+        },
+    )
+    .unwrap();
+    assert_eq!(summary.frames, 12);
+    assert_eq!(summary.sensor_data_frames, vec![3]);
+    let frames: Vec<usize> = seen.iter().map(|s| s.0).collect();
+    assert_eq!(frames, vec![0, 4, 8]);
+    for w in seen.windows(2) {
+        assert!((w[0].1 + w[0].2 - w[1].1).abs() < 1e-9, "contiguous: {seen:?}");
+    }
+    assert!(seen.iter().all(|s| (s.2 - 0.02).abs() < 1e-12));
+}
+
+#[test]
 fn runner_steps_several_sensors_and_instances() {
     let dir = mock_fmu_dir(GUID);
     let fmu = Fmu::from_dir(dir.path()).unwrap();
@@ -768,6 +806,7 @@ fn runner_steps_several_sensors_and_instances() {
             &RunOptions {
                 step_size: None,
                 parallel,
+                multi_rate: false,
             },
             |r: StepRecord<'_>| {
                 let sd =
@@ -803,6 +842,7 @@ fn runner_steps_several_sensors_and_instances() {
         &RunOptions {
             step_size: Some(0.01),
             parallel: false,
+            multi_rate: false,
         },
         |r: StepRecord<'_>| {
             if r.sensor_index == 1 {

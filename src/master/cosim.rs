@@ -8,8 +8,15 @@
 //!   `osi3::SensorView`s (one per sensor, encoded) into frames, a `.osi` trace maps each SensorView frame
 //!   into a frame with a single view fed to every sensor; infallible sources use `.map(Ok::<_, Infallible>)`;
 //! * every sensor is stepped once per frame, in sensor order (or in parallel, one thread per sensor, with
-//!   [`RunOptions::parallel`]); then the sink receives one [`StepRecord`] per sensor, in sensor order, so it
-//!   can write SensorData / PerceptionData into per-sensor trace writers.
+//!   [`RunOptions::parallel`]); then the sink receives one [`StepRecord`] per stepped sensor, in sensor
+//!   order, so it can write SensorData / PerceptionData into per-sensor trace writers;
+//! * with [`RunOptions::multi_rate`], each sensor runs at its own cycle instead (its
+//!   `DefaultExperiment/@stepSize`, the sensor's update cycle): at a frame with time `t` and frame step
+//!   `h` a sensor is due when `t` reached its next communication point; it is stepped with
+//!   `h_i = k·h`, `k = max(1, round(cycle / h))`, so its communication points stay contiguous
+//!   (`t_next = t + h_i`) and fall on frames when the frames are evenly spaced. Its effective cycle is
+//!   the multiple of the frame step nearest to its own (e.g. a 0.033 s camera on 0.02 s frames runs
+//!   every 0.04 s).
 //!
 //! ```no_run
 //! # use osiris::master::*;
@@ -67,6 +74,8 @@ pub struct RunOptions {
     /// Step the sensors of a frame in parallel, one scoped thread per sensor (FMI 2.0 allows parallel
     /// calls to different instances).
     pub parallel: bool,
+    /// Step each sensor at its own cycle (see the module documentation) instead of at every frame.
+    pub multi_rate: bool,
 }
 
 /// What the sink receives for each sensor and frame.
@@ -126,6 +135,18 @@ where
         ..RunSummary::default()
     };
     let default_step = sensors.first().and_then(OsmpSensor::default_step_size);
+    let cycles: Vec<Option<f64>> = sensors
+        .iter()
+        .map(|s| {
+            options
+                .multi_rate
+                .then(|| s.default_step_size())
+                .flatten()
+                .filter(|c| *c > 0.0 && c.is_finite())
+        })
+        .collect();
+    // Next communication point of each sensor (multi-rate); `None`: due at the next frame.
+    let mut next_due: Vec<Option<f64>> = vec![None; n];
     let mut frames = frames.into_iter().peekable();
     let mut previous_h: Option<f64> = None;
     let mut frame_index = 0;
@@ -164,14 +185,30 @@ where
         let view = |i: usize| -> &[u8] {
             &frame.sensor_views[if frame.sensor_views.len() == 1 { 0 } else { i }]
         };
-        let results: Vec<Result<StepOutputs>> = if options.parallel && n > 1 {
+        // Which sensors step at this frame, and with which step size.
+        let steps: Vec<Option<f64>> = (0..n)
+            .map(|i| match cycles[i] {
+                None => Some(h),
+                Some(cycle) => match next_due[i] {
+                    Some(due) if frame.time < due - 0.5 * h => None,
+                    _ => Some(h * (cycle / h).round().max(1.0)),
+                },
+            })
+            .collect();
+        for (i, hi) in steps.iter().enumerate() {
+            if let (Some(hi), Some(_)) = (hi, cycles[i]) {
+                next_due[i] = Some(frame.time + hi);
+            }
+        }
+        let results: Vec<Option<Result<StepOutputs>>> = if options.parallel && n > 1 {
             std::thread::scope(|scope| {
                 let handles: Vec<_> = sensors
                     .iter_mut()
                     .enumerate()
                     .map(|(i, s)| {
                         let sv = view(i);
-                        scope.spawn(move || s.step(sv, frame.time, h))
+                        let hi = steps[i];
+                        scope.spawn(move || hi.map(|hi| s.step(sv, frame.time, hi)))
                     })
                     .collect();
                 handles
@@ -183,11 +220,13 @@ where
             sensors
                 .iter_mut()
                 .enumerate()
-                .map(|(i, s)| s.step(view(i), frame.time, h))
+                .map(|(i, s)| steps[i].map(|hi| s.step(view(i), frame.time, hi)))
                 .collect()
         };
 
         for (sensor_index, result) in results.into_iter().enumerate() {
+            let Some(result) = result else { continue };
+            let hi = steps[sensor_index].unwrap_or(h);
             let outputs = result.map_err(|e| MasterError::Sensor {
                 frame_index,
                 sensor_index,
@@ -202,7 +241,7 @@ where
                 sensor_index,
                 sensor_name: sensors[sensor_index].name(),
                 time: frame.time,
-                step_size: h,
+                step_size: hi,
                 outputs: &outputs,
             };
             sink(record).map_err(|e| MasterError::Sink {
