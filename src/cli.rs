@@ -27,6 +27,29 @@ use crate::package::{self, PackageOptions};
 use crate::scenario::{ScenarioConfig, SensorMount};
 use crate::trace::{OsiTraceReader, OsiTraceWriter};
 
+/// `print!` to stdout that ends the command quietly when stdout is closed (e.g. `osiris scenario |
+/// head`) instead of panicking; other write errors are returned.
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        match write!(std::io::stdout().lock(), $($arg)*) {
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => return Ok(()),
+            r => r?,
+        }
+    }};
+}
+
+/// `println!` counterpart of `out!`.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        match writeln!(std::io::stdout().lock(), $($arg)*) {
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => return Ok(()),
+            r => r?,
+        }
+    }};
+}
+
 /// Protobuf-version field of the trace file names: the messages are encoded by prost 0.14 ("014").
 const PROTOBUF_VERSION_TAG: &str = "0.14";
 
@@ -199,7 +222,7 @@ pub fn main_with(cli: Cli) -> Result<()> {
                 sensors: sensor_list(&sensors),
             };
             for path in package::package(&opts)? {
-                println!("{}", path.display());
+                outln!("{}", path.display());
             }
             Ok(())
         }
@@ -227,7 +250,7 @@ pub fn main_with(cli: Cli) -> Result<()> {
                     osiris_models::radar::bench::bench_radar(max_threads, frames.unwrap_or(40).max(1))
                 }
             };
-            println!("{}", serde_json::to_string(&figures)?);
+            outln!("{}", serde_json::to_string(&figures)?);
             Ok(())
         }
         Command::Export { trace, out, frame } => {
@@ -237,7 +260,7 @@ pub fn main_with(cli: Cli) -> Result<()> {
         }
         Command::Consistency(args) => crate::consistency::cli::run(args),
         Command::Scenario => {
-            println!("{}", ScenarioConfig::default().to_json_pretty());
+            outln!("{}", ScenarioConfig::default().to_json_pretty());
             Ok(())
         }
         Command::Effects { json } => {
@@ -254,11 +277,11 @@ pub fn main_with(cli: Cli) -> Result<()> {
                         })
                     })
                     .collect();
-                println!("{}", serde_json::to_string_pretty(&rows)?);
+                outln!("{}", serde_json::to_string_pretty(&rows)?);
             } else {
                 for e in &all {
                     let state = if e.default_on { "on " } else { "off" };
-                    println!(
+                    outln!(
                         "{:<28} {state}  {}\n{:<33}source: {}",
                         e.name, e.summary, "", e.source
                     );
@@ -267,7 +290,7 @@ pub fn main_with(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::ModelDescription { sensor } => {
-            print!(
+            out!(
                 "{}",
                 osiris_fmu::sensors::descriptor(sensor.into()).model_description()
             );
@@ -545,7 +568,7 @@ fn run(args: RunArgs) -> Result<()> {
         args.out.join("summary.json"),
         serde_json::to_string_pretty(&json)? + "\n",
     )?;
-    print!("{text}");
+    out!("{text}");
     Ok(())
 }
 
