@@ -1,13 +1,396 @@
-//! Antenna gain patterns and the RF front end (being written).
+//! Antenna gain patterns and the RF front end: transmit power, Tx/Rx gain patterns (parametric or
+//! tabulated), receiver noise figure, system losses, polarisation.
+//!
+//! Directions are in the sensor frame: azimuth about +z from +x (positive left), elevation positive
+//! up (`crate::frames::Spherical`). Gains are power gains over isotropic (dBi).
 
 use serde::{Deserialize, Serialize};
 
-use crate::effects::EffectInfo;
+use crate::effects::{EffectInfo, Effects};
+use crate::environment::material::Polarisation as PlanePolarisation;
+use crate::sensor::ModelError;
+
+/// `radar.antenna_pattern`: direction-dependent Tx and Rx gains.
+pub const ANTENNA_PATTERN: EffectInfo = EffectInfo {
+    name: "radar.antenna_pattern",
+    default_on: true,
+    summary: "Tx/Rx power gain patterns G(az, el): parametric Gaussian G = G₀·exp(−4 ln2 (az²/θ_az² + \
+              el²/θ_el²)) or cosⁿ with n from the 3 dB beamwidth (cos^n(θ_3dB/2) = 1/2), or a bilinear table \
+              in dBi; P_r ∝ G_t(DoD)·G_r(DoA); off: every direction gets the peak gain G₀ (isotropic shape)",
+    source: "Balanis, Antenna Theory 4th ed. (2016) §2.5 (beamwidth, directivity), §2.11; Gaussian beam \
+             approximation: Skolnik, Radar Handbook 3rd ed. ch. 13",
+};
 
 /// Effects declared by this module.
-pub const EFFECTS: &[EffectInfo] = &[];
+pub const EFFECTS: &[EffectInfo] = &[ANTENNA_PATTERN];
+
+/// Linear polarisation of the radar's Tx and Rx antennas (co-polarised).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub enum Polarisation {
+    /// Horizontal: E along the sensor's y axis (TE for a ground bounce).
+    #[default]
+    #[serde(alias = "h", alias = "horizontal")]
+    H,
+    /// Vertical: E along the sensor's z axis (TM for a ground bounce).
+    #[serde(alias = "v", alias = "vertical")]
+    V,
+}
+
+impl Polarisation {
+    /// The plane-of-incidence polarisation of a bounce off a horizontal surface (road).
+    pub fn for_ground(self) -> PlanePolarisation {
+        match self {
+            Polarisation::H => PlanePolarisation::Te,
+            Polarisation::V => PlanePolarisation::Tm,
+        }
+    }
+}
+
+/// Shape of a parametric beam.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BeamShape {
+    /// `G = G₀ exp(−4 ln 2 (az/θ_az)² − 4 ln 2 (el/θ_el)²)` (−3 dB at half the beamwidth).
+    #[default]
+    Gaussian,
+    /// `G = G₀ cos^{n_az}(az) cos^{n_el}(el)` with `n = ln ½ / ln cos(θ_3dB/2)` (0 beyond ±90°).
+    CosPower,
+}
+
+/// A gain pattern, either parametric or a table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "snake_case", tag = "type")]
+pub enum AntennaPattern {
+    /// Separable parametric beam.
+    Parametric {
+        /// Shape of the beam.
+        #[serde(default)]
+        shape: BeamShape,
+        /// Peak (boresight) gain, dBi.
+        peak_gain_dbi: f64,
+        /// Full azimuth beamwidth between the −3 dB points, deg.
+        azimuth_beamwidth_deg: f64,
+        /// Full elevation beamwidth between the −3 dB points, deg.
+        elevation_beamwidth_deg: f64,
+    },
+    /// Gain table `gain_dbi[i_el][i_az]` at the (strictly increasing) grid angles, bilinearly
+    /// interpolated in dB, clamped at the grid's edges.
+    Table {
+        /// Azimuth grid, deg.
+        azimuth_deg: Vec<f64>,
+        /// Elevation grid, deg.
+        elevation_deg: Vec<f64>,
+        /// Gain, dBi, one row per elevation.
+        gain_dbi: Vec<Vec<f64>>,
+    },
+}
+
+impl Default for AntennaPattern {
+    /// A typical long-range automotive front-radar patch array (guessed, order of magnitude of
+    /// published sensors: ±10° … ±60° azimuth FOV): Gaussian, 12 dBi, 60° × 12°.
+    fn default() -> Self {
+        AntennaPattern::Parametric {
+            shape: BeamShape::Gaussian,
+            peak_gain_dbi: 12.0,
+            azimuth_beamwidth_deg: 60.0,
+            elevation_beamwidth_deg: 12.0,
+        }
+    }
+}
+
+impl AntennaPattern {
+    fn validate(&self, key: &str) -> Result<(), ModelError> {
+        let err = |m: String| Err(ModelError::Config(format!("`{key}`: {m}")));
+        match self {
+            AntennaPattern::Parametric {
+                peak_gain_dbi,
+                azimuth_beamwidth_deg,
+                elevation_beamwidth_deg,
+                ..
+            } => {
+                if !peak_gain_dbi.is_finite() {
+                    return err("`peak_gain_dbi` must be finite".into());
+                }
+                for (name, v) in [
+                    ("azimuth_beamwidth_deg", azimuth_beamwidth_deg),
+                    ("elevation_beamwidth_deg", elevation_beamwidth_deg),
+                ] {
+                    if !(v.is_finite() && *v > 0.0 && *v < 360.0) {
+                        return err(format!("`{name}` must be in (0, 360) deg, got {v}"));
+                    }
+                }
+            }
+            AntennaPattern::Table {
+                azimuth_deg,
+                elevation_deg,
+                gain_dbi,
+            } => {
+                for (name, g) in [
+                    ("azimuth_deg", azimuth_deg),
+                    ("elevation_deg", elevation_deg),
+                ] {
+                    if g.is_empty() || g.iter().any(|v| !v.is_finite()) {
+                        return err(format!(
+                            "`{name}` must be a non-empty list of finite angles"
+                        ));
+                    }
+                    if g.windows(2).any(|w| w[1] <= w[0]) {
+                        return err(format!("`{name}` must be strictly increasing"));
+                    }
+                }
+                if gain_dbi.len() != elevation_deg.len()
+                    || gain_dbi.iter().any(|r| r.len() != azimuth_deg.len())
+                {
+                    return err(format!(
+                        "`gain_dbi` must have {} rows (elevations) of {} values (azimuths)",
+                        elevation_deg.len(),
+                        azimuth_deg.len()
+                    ));
+                }
+                if gain_dbi.iter().flatten().any(|v| !v.is_finite()) {
+                    return err("`gain_dbi` values must be finite".into());
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Peak gain, dBi (the table's maximum).
+    pub fn peak_gain_dbi(&self) -> f64 {
+        match self {
+            AntennaPattern::Parametric { peak_gain_dbi, .. } => *peak_gain_dbi,
+            AntennaPattern::Table { gain_dbi, .. } => gain_dbi
+                .iter()
+                .flatten()
+                .copied()
+                .fold(f64::NEG_INFINITY, f64::max),
+        }
+    }
+
+    /// Gain in a direction, dBi.
+    pub fn gain_dbi(&self, azimuth_rad: f64, elevation_rad: f64) -> f64 {
+        match self {
+            AntennaPattern::Parametric {
+                shape,
+                peak_gain_dbi,
+                azimuth_beamwidth_deg,
+                elevation_beamwidth_deg,
+            } => {
+                let th_az = azimuth_beamwidth_deg.to_radians();
+                let th_el = elevation_beamwidth_deg.to_radians();
+                match shape {
+                    BeamShape::Gaussian => {
+                        // 10 log10(exp(−4 ln2 x²)) = −4 ln2 · 10/ln10 · x² = −12.04 x² dB.
+                        let k = 40.0 * std::f64::consts::LN_2 / std::f64::consts::LN_10;
+                        peak_gain_dbi
+                            - k * ((azimuth_rad / th_az).powi(2) + (elevation_rad / th_el).powi(2))
+                    }
+                    BeamShape::CosPower => {
+                        let term = |a: f64, th: f64| {
+                            let c = a.cos();
+                            if c <= 1e-12 {
+                                return -300.0;
+                            }
+                            let n = 0.5f64.ln() / (0.5 * th).min(3.1).cos().ln();
+                            10.0 * n * c.log10()
+                        };
+                        peak_gain_dbi + term(azimuth_rad, th_az) + term(elevation_rad, th_el)
+                    }
+                }
+            }
+            AntennaPattern::Table {
+                azimuth_deg,
+                elevation_deg,
+                gain_dbi,
+            } => {
+                let (ia, fa) = bracket(azimuth_deg, azimuth_rad.to_degrees());
+                let (ie, fe) = bracket(elevation_deg, elevation_rad.to_degrees());
+                let ia1 = (ia + 1).min(azimuth_deg.len() - 1);
+                let ie1 = (ie + 1).min(elevation_deg.len() - 1);
+                let g0 = gain_dbi[ie][ia] * (1.0 - fa) + gain_dbi[ie][ia1] * fa;
+                let g1 = gain_dbi[ie1][ia] * (1.0 - fa) + gain_dbi[ie1][ia1] * fa;
+                g0 * (1.0 - fe) + g1 * fe
+            }
+        }
+    }
+}
+
+/// Index `i` and fraction `f` with `x ≈ grid[i]·(1−f) + grid[i+1]·f`, clamped to the grid.
+fn bracket(grid: &[f64], x: f64) -> (usize, f64) {
+    let n = grid.len();
+    if n == 1 || x <= grid[0] {
+        return (0, 0.0);
+    }
+    if x >= grid[n - 1] {
+        return (n - 1, 0.0);
+    }
+    let i = grid.partition_point(|&g| g <= x) - 1;
+    (i, (x - grid[i]) / (grid[i + 1] - grid[i]))
+}
 
 /// Transmit power, antenna patterns, receiver noise figure.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct FrontEndConfig {}
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FrontEndConfig {
+    /// Transmit power per Tx antenna at the antenna port, dBm (TI AWR1843: 12 dBm).
+    pub tx_power_dbm: f64,
+    /// Gain pattern of every Tx antenna.
+    pub tx_pattern: AntennaPattern,
+    /// Gain pattern of every Rx antenna.
+    pub rx_pattern: AntennaPattern,
+    /// Receiver noise figure, dB (automotive 10–15 dB, physics.md §1.1; 12 dB guessed typical).
+    pub noise_figure_db: f64,
+    /// Lumped system losses L_sys (radome, feed lines, processing), dB (3 dB guessed, as the worked
+    /// example of physics.md §1.1).
+    pub system_losses_db: f64,
+    /// Noise reference temperature T₀, K (290 K: IEEE standard noise-figure reference).
+    pub noise_temperature_k: f64,
+    /// Polarisation of the Tx and Rx antennas.
+    pub polarisation: Polarisation,
+}
+
+impl Default for FrontEndConfig {
+    fn default() -> Self {
+        FrontEndConfig {
+            tx_power_dbm: 12.0,
+            tx_pattern: AntennaPattern::default(),
+            rx_pattern: AntennaPattern::default(),
+            noise_figure_db: 12.0,
+            system_losses_db: 3.0,
+            noise_temperature_k: 290.0,
+            polarisation: Polarisation::H,
+        }
+    }
+}
+
+impl FrontEndConfig {
+    /// Check the values; errors name the key (`radar.front_end.<key>`).
+    pub fn validate(&self) -> Result<(), ModelError> {
+        for (k, v) in [
+            ("tx_power_dbm", self.tx_power_dbm),
+            ("noise_figure_db", self.noise_figure_db),
+            ("system_losses_db", self.system_losses_db),
+        ] {
+            if !v.is_finite() {
+                return Err(ModelError::Config(format!(
+                    "`radar.front_end.{k}` must be finite, got {v}"
+                )));
+            }
+        }
+        if self.noise_figure_db < 0.0 {
+            return Err(ModelError::Config(format!(
+                "`radar.front_end.noise_figure_db` must be ≥ 0 dB, got {}",
+                self.noise_figure_db
+            )));
+        }
+        if !(self.noise_temperature_k.is_finite() && self.noise_temperature_k > 0.0) {
+            return Err(ModelError::Config(format!(
+                "`radar.front_end.noise_temperature_k` must be > 0 K, got {}",
+                self.noise_temperature_k
+            )));
+        }
+        self.tx_pattern.validate("radar.front_end.tx_pattern")?;
+        self.rx_pattern.validate("radar.front_end.rx_pattern")?;
+        Ok(())
+    }
+
+    /// Transmit power, W.
+    pub fn tx_power_w(&self) -> f64 {
+        1e-3 * 10f64.powf(self.tx_power_dbm / 10.0)
+    }
+
+    /// Noise power spectral density at the receiver input `k T₀ F_n`, W/Hz.
+    pub fn noise_psd_w_per_hz(&self) -> f64 {
+        1.380649e-23 * self.noise_temperature_k * 10f64.powf(self.noise_figure_db / 10.0)
+    }
+}
+
+/// The gains a model applies (patterns under the `radar.antenna_pattern` switch).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Antennas {
+    tx: AntennaPattern,
+    rx: AntennaPattern,
+    patterned: bool,
+}
+
+impl Antennas {
+    /// From a front end and the effect switches (declares [`ANTENNA_PATTERN`]).
+    pub fn new(front_end: &FrontEndConfig, effects: &Effects) -> Antennas {
+        Antennas {
+            tx: front_end.tx_pattern.clone(),
+            rx: front_end.rx_pattern.clone(),
+            patterned: effects.is_on(&ANTENNA_PATTERN),
+        }
+    }
+
+    /// Tx gain towards (az, el), dBi (peak gain with the pattern switched off).
+    pub fn tx_gain_dbi(&self, azimuth_rad: f64, elevation_rad: f64) -> f64 {
+        if self.patterned {
+            self.tx.gain_dbi(azimuth_rad, elevation_rad)
+        } else {
+            self.tx.peak_gain_dbi()
+        }
+    }
+
+    /// Rx gain from (az, el), dBi.
+    pub fn rx_gain_dbi(&self, azimuth_rad: f64, elevation_rad: f64) -> f64 {
+        if self.patterned {
+            self.rx.gain_dbi(azimuth_rad, elevation_rad)
+        } else {
+            self.rx.peak_gain_dbi()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gaussian_and_cos_power_are_3db_down_at_half_beamwidth() {
+        for shape in [BeamShape::Gaussian, BeamShape::CosPower] {
+            let p = AntennaPattern::Parametric {
+                shape,
+                peak_gain_dbi: 10.0,
+                azimuth_beamwidth_deg: 40.0,
+                elevation_beamwidth_deg: 10.0,
+            };
+            assert!((p.gain_dbi(0.0, 0.0) - 10.0).abs() < 1e-9);
+            let g = p.gain_dbi(20f64.to_radians(), 0.0);
+            assert!(
+                (g - (10.0 - 10.0 * 2f64.log10())).abs() < 1e-6,
+                "{shape:?}: {g}"
+            );
+            let g = p.gain_dbi(0.0, (-5f64).to_radians());
+            assert!(
+                (g - (10.0 - 10.0 * 2f64.log10())).abs() < 1e-6,
+                "{shape:?}: {g}"
+            );
+        }
+    }
+
+    #[test]
+    fn table_interpolates_bilinearly_and_clamps() {
+        let p = AntennaPattern::Table {
+            azimuth_deg: vec![-10.0, 0.0, 10.0],
+            elevation_deg: vec![0.0, 10.0],
+            gain_dbi: vec![vec![0.0, 10.0, 0.0], vec![-10.0, 0.0, -10.0]],
+        };
+        p.validate("t").unwrap();
+        assert!((p.gain_dbi(5f64.to_radians(), 0.0) - 5.0).abs() < 1e-9);
+        assert!((p.gain_dbi(0.0, 5f64.to_radians()) - 5.0).abs() < 1e-9);
+        assert!((p.gain_dbi(0.0, 50f64.to_radians()) - 0.0).abs() < 1e-9);
+        assert_eq!(p.peak_gain_dbi(), 10.0);
+        let bad = AntennaPattern::Table {
+            azimuth_deg: vec![0.0, 0.0],
+            elevation_deg: vec![0.0],
+            gain_dbi: vec![vec![0.0, 0.0]],
+        };
+        assert!(
+            bad.validate("k")
+                .unwrap_err()
+                .to_string()
+                .contains("azimuth_deg")
+        );
+    }
+}

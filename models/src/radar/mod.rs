@@ -12,14 +12,28 @@
 
 pub mod antenna;
 pub mod baseband;
+pub mod bench;
 pub mod processing;
 pub mod propagation;
 pub mod waveform;
 
 use num_complex::Complex64;
+use osiris_proto::{id, interface_version, osi3, perception};
+use prost::Message as _;
 use serde::{Deserialize, Serialize};
 
-use crate::effects::EffectInfo;
+use crate::effects::{EffectInfo, Effects};
+use crate::frames::Spherical;
+use crate::recognition::radar::RadarRecognition;
+use crate::recognition::{EgoState, RadarDetection};
+use crate::sensor::{
+    ModelError, ModelMode, SensorConfig, SensorKind, SensorModel, StepInput, StepOutput,
+};
+use crate::world::SensorWorld;
+
+use antenna::Antennas;
+use baseband::{ChainDetection, RadarChain};
+use propagation::Propagator;
 
 /// One propagation path as the baseband sees it: what reaches the receiver from one scattering
 /// contribution, for the whole frame (stop-and-hop: range and direction are those at the frame's
@@ -65,6 +79,12 @@ pub struct RadarConfig {
     /// Recognition (clustering, ghost rejection, tracking) parameters.
     #[serde(default)]
     pub recognition: crate::recognition::radar::RadarRecognitionConfig,
+    /// Ray-tube launching and scattering-centre grouping.
+    #[serde(default)]
+    pub propagation: propagation::PropagationConfig,
+    /// Put the range-Doppler map of every frame into the perception output (large).
+    #[serde(default)]
+    pub emit_range_doppler_map: bool,
 }
 
 /// Every effect of the radar model.
@@ -76,8 +96,308 @@ pub fn effects() -> Vec<EffectInfo> {
 pub fn build(
     config: crate::sensor::SensorConfig,
 ) -> Result<Box<dyn crate::sensor::SensorModel>, crate::sensor::ModelError> {
-    Err(crate::sensor::ModelError::NotAvailable(format!(
-        "the physical {} model is being written; use mode `ideal`",
-        config.kind.name()
-    )))
+    Ok(Box::new(RadarSensor::new(config)?))
+}
+
+/// Speed of light, m/s.
+const C0: f64 = 299_792_458.0;
+
+/// The physical radar sensor model: world → propagation paths → baseband chain → detections →
+/// recognition.
+pub struct RadarSensor {
+    config: SensorConfig,
+    radar: RadarConfig,
+    effects: Effects,
+    ideal: crate::ideal::IdealSensor,
+    world: SensorWorld,
+    propagator: Propagator,
+    antennas: Antennas,
+    chain: RadarChain,
+    recognition: RadarRecognition,
+    sensor_id: Option<u64>,
+    cycle: u64,
+    seed: u64,
+    paths: Vec<PathReturn>,
+    chain_out: Vec<ChainDetection>,
+    detections: Vec<RadarDetection>,
+}
+
+impl RadarSensor {
+    /// Build from a configuration (`kind: radar`); errors name the bad key.
+    pub fn new(config: SensorConfig) -> Result<RadarSensor, ModelError> {
+        config.validate()?;
+        if config.kind != SensorKind::Radar {
+            return Err(ModelError::Config(format!(
+                "`kind` must be `radar` for the radar model, got `{}`",
+                config.kind.name()
+            )));
+        }
+        let radar = config.radar.clone().unwrap_or_default();
+        let effects = Effects::with_switches(&crate::effects::catalogue(), &config.effects)
+            .map_err(|e| ModelError::Config(format!("`effects`: {e}")))?;
+        radar.front_end.validate()?;
+        let propagator = Propagator::new(
+            &radar.propagation,
+            &radar.front_end,
+            radar.waveform.carrier_frequency_hz,
+            &effects,
+        )?;
+        let chain = RadarChain::new(
+            &radar.waveform,
+            &radar.array,
+            &radar.front_end,
+            &radar.processing,
+            &effects,
+        )?;
+        let recognition = RadarRecognition::new(&radar.recognition)?;
+        Ok(RadarSensor {
+            ideal: crate::ideal::IdealSensor::new(config.clone()),
+            antennas: Antennas::new(&radar.front_end, &effects),
+            seed: config.seed.unwrap_or(0),
+            config,
+            radar,
+            effects,
+            world: SensorWorld::new(),
+            propagator,
+            chain,
+            recognition,
+            sensor_id: None,
+            cycle: 0,
+            paths: Vec::new(),
+            chain_out: Vec::new(),
+            detections: Vec::new(),
+        })
+    }
+
+    /// The radar configuration in effect.
+    pub fn radar_config(&self) -> &RadarConfig {
+        &self.radar
+    }
+
+    /// The effect switches in effect.
+    pub fn effects(&self) -> &Effects {
+        &self.effects
+    }
+
+    /// The propagation paths of the last step (sensor frame angles).
+    pub fn last_paths(&self) -> &[PathReturn] {
+        &self.paths
+    }
+
+    /// The chain detections of the last step.
+    pub fn last_chain_detections(&self) -> &[ChainDetection] {
+        &self.chain_out
+    }
+
+    /// Ray tubes launched in the last step.
+    pub fn last_tube_count(&self) -> usize {
+        self.propagator.last_tube_count
+    }
+
+    /// Only the propagation of one step: the paths of `view` (no baseband, no outputs).
+    pub fn propagate(&mut self, input: &StepInput<'_>) -> Result<&[PathReturn], ModelError> {
+        let frame = self
+            .world
+            .update(input.view, &self.config, input.time_s, self.sensor_id)?;
+        self.propagator.compute(
+            &frame,
+            (self.config.fov_horizontal_rad, self.config.fov_vertical_rad),
+            self.config.range_m,
+            &mut self.paths,
+        );
+        Ok(&self.paths)
+    }
+
+    /// RCS estimate of a detection, dBsm: the radar equation inverted at the detected range with
+    /// the antenna gains at the detected angle,
+    /// `σ = P_r (4π)³ R⁴ L_sys / (P_t G_t G_r λ²)` (physics.md §1.1).
+    pub fn rcs_estimate_dbsm(&self, d: &ChainDetection) -> f64 {
+        rcs_estimate_dbsm(&self.radar, &self.antennas, d)
+    }
+}
+
+/// See [`RadarSensor::rcs_estimate_dbsm`].
+fn rcs_estimate_dbsm(radar: &RadarConfig, antennas: &Antennas, d: &ChainDetection) -> f64 {
+    let fe = &radar.front_end;
+    let lambda = C0 / radar.waveform.carrier_frequency_hz;
+    let g = antennas.tx_gain_dbi(d.azimuth_rad, d.elevation_rad)
+        + antennas.rx_gain_dbi(d.azimuth_rad, d.elevation_rad);
+    d.power_dbm - fe.tx_power_dbm - g - 20.0 * lambda.log10()
+        + 30.0 * (4.0 * std::f64::consts::PI).log10()
+        + 40.0 * d.range_m.max(1e-3).log10()
+        + fe.system_losses_db
+}
+
+/// Existence probability of a detection from its SNR: a logistic ramp, 0.5 at 13 dB (the
+/// CA-CFAR threshold at P_FA 1e-6, physics.md §1.7), 0.95 at 20 dB (guessed shape).
+fn existence_from_snr(snr_db: f64) -> f64 {
+    1.0 / (1.0 + (-(snr_db - 13.0) * 0.42).exp())
+}
+
+impl SensorModel for RadarSensor {
+    fn kind(&self) -> SensorKind {
+        SensorKind::Radar
+    }
+
+    fn mode(&self) -> ModelMode {
+        ModelMode::Physical
+    }
+
+    fn config(&self) -> &SensorConfig {
+        &self.config
+    }
+
+    fn view_configuration_request(&self) -> osi3::SensorViewConfiguration {
+        self.ideal.view_configuration_request()
+    }
+
+    fn apply_view_configuration(
+        &mut self,
+        granted: &osi3::SensorViewConfiguration,
+    ) -> Result<Vec<String>, ModelError> {
+        let notes = self.ideal.apply_view_configuration(granted)?;
+        if let Some(v) = granted.sensor_id.and_then(|i| i.value) {
+            self.sensor_id = Some(v);
+        }
+        self.config = self.ideal.config().clone();
+        Ok(notes)
+    }
+
+    fn step(&mut self, input: &StepInput<'_>, out: &mut StepOutput) -> Result<(), ModelError> {
+        let mut dets = out
+            .sensor_data
+            .feature_data
+            .as_mut()
+            .and_then(|fd| fd.radar_sensor.first_mut())
+            .map(|x| std::mem::take(&mut x.detection))
+            .unwrap_or_default();
+        let mut peaks = out
+            .perception
+            .radar
+            .as_mut()
+            .map(|r| std::mem::take(&mut r.peak))
+            .unwrap_or_default();
+        let mut moving = std::mem::take(&mut out.sensor_data.moving_object);
+        out.sensor_data.clear();
+        out.perception.clear();
+        dets.clear();
+        peaks.clear();
+        moving.clear();
+
+        let cycle = self.cycle;
+        self.cycle += 1;
+        let frame = self
+            .world
+            .update(input.view, &self.config, input.time_s, self.sensor_id)?;
+        self.propagator.compute(
+            &frame,
+            (self.config.fov_horizontal_rad, self.config.fov_vertical_rad),
+            self.config.range_m,
+            &mut self.paths,
+        );
+        self.chain_out.clear();
+        let seed = crate::lidar::splitmix64(self.seed ^ crate::lidar::splitmix64(cycle));
+        self.chain.run(&self.paths, seed, &mut self.chain_out);
+
+        self.detections.clear();
+        for d in &self.chain_out {
+            let rcs = rcs_estimate_dbsm(&self.radar, &self.antennas, d);
+            let oid = (d.object_id != osiris_proto::INVALID_ID).then(|| id(d.object_id));
+            let sph = Spherical {
+                distance: d.range_m,
+                azimuth: d.azimuth_rad,
+                elevation: d.elevation_rad,
+            };
+            dets.push(osi3::RadarDetection {
+                existence_probability: Some(existence_from_snr(d.snr_db)),
+                object_id: oid,
+                position: Some(sph.to_osi()),
+                // OSI: radial velocity positive towards the sensor (see ideal.rs).
+                radial_velocity: Some(-d.range_rate_m_s),
+                rcs: Some(rcs),
+                snr: Some(d.snr_db),
+                ..Default::default()
+            });
+            peaks.push(perception::RadarPeak {
+                range_m: Some(d.range_m),
+                range_rate_m_s: Some(d.range_rate_m_s),
+                azimuth_rad: Some(d.azimuth_rad),
+                elevation_rad: Some(d.elevation_rad),
+                power_dbm: Some(d.power_dbm),
+                snr_db: Some(d.snr_db),
+                rcs_dbsm: Some(rcs),
+                object_id: oid,
+            });
+            self.detections.push(RadarDetection {
+                range_m: d.range_m,
+                azimuth_rad: d.azimuth_rad,
+                elevation_rad: d.elevation_rad,
+                range_rate_m_s: d.range_rate_m_s,
+                snr_db: d.snr_db,
+                rcs_dbsm: rcs,
+                object_id: d.object_id,
+            });
+        }
+        let ego = EgoState {
+            time_s: frame.time_s,
+            sensor_pose: frame.sensor_pose,
+            sensor_velocity_m_s: frame.sensor_velocity_m_s,
+            sensor_angular_velocity_rad_s: frame.sensor_angular_velocity_rad_s,
+        };
+        self.recognition.step(&ego, &self.detections, &mut moving);
+
+        let sd = &mut out.sensor_data;
+        frame.fill_sensor_data_header(sd, cycle);
+        let header = frame.detection_header(cycle, dets.len());
+        sd.feature_data = Some(osi3::FeatureData {
+            version: Some(interface_version()),
+            radar_sensor: vec![osi3::RadarDetectionData {
+                header: Some(header),
+                detection: dets,
+            }],
+            ..Default::default()
+        });
+        sd.moving_object = moving;
+        let w = &self.radar.waveform;
+        let rd_map = self.radar.emit_range_doppler_map.then(|| {
+            let m = self.chain.range_doppler_map();
+            perception::RangeDopplerMap {
+                range_bins: Some(m.range_bins as u32),
+                doppler_bins: Some(m.doppler_bins as u32),
+                range_bin_m: Some(m.range_bin_m),
+                range_rate_bin_m_s: Some(m.doppler_bin_m_s),
+                power_dbm: m.power_dbm,
+            }
+        });
+        let p = &mut out.perception;
+        p.osi_version = Some(interface_version());
+        p.extension_version = Some(osiris_proto::PERCEPTION_EXTENSION_VERSION.to_string());
+        p.timestamp = Some(frame.timestamp);
+        p.sensor_id = frame.sensor_id;
+        p.mounting_position = Some(frame.mounting);
+        p.model_mode = Some(ModelMode::Physical.name().to_string());
+        p.cycle_counter = Some(cycle);
+        p.radar = Some(perception::RadarPerception {
+            peak: peaks,
+            waveform: Some(perception::RadarWaveform {
+                carrier_frequency_hz: Some(w.carrier_frequency_hz),
+                bandwidth_hz: Some(w.sampled_bandwidth_hz()),
+                chirp_duration_s: Some(w.chirp_interval_s()),
+                samples_per_chirp: Some(w.samples_per_chirp as u32),
+                chirps_per_frame: Some(w.chirps_per_frame as u32),
+                virtual_channels: Some(self.radar.array.n_virtual() as u32),
+            }),
+            range_doppler_map: rd_map,
+        });
+        Ok(())
+    }
+
+    fn reset(&mut self) {
+        self.world.reset();
+        self.recognition.reset();
+        self.cycle = 0;
+        self.paths.clear();
+        self.chain_out.clear();
+        self.detections.clear();
+    }
 }
