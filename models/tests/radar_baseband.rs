@@ -490,6 +490,261 @@ fn bench_print() {
     let threads = std::env::var("RADAR_BENCH_THREADS")
         .ok()
         .and_then(|s| s.parse().ok());
-    let v = osiris_models::radar::bench::bench_radar(threads.or(Some(2)), 10);
+    let frames = std::env::var("RADAR_BENCH_FRAMES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(10);
+    let v = osiris_models::radar::bench::bench_radar(threads.or(Some(2)), frames);
     println!("{v}");
+}
+
+/// Detections within `dr` m in range and `dv` m/s of (r, v).
+fn near(d: &[ChainDetection], r: f64, v: f64, dr: f64, dv: f64) -> Vec<ChainDetection> {
+    d.iter()
+        .filter(|x| (x.range_m - r).abs() < dr && (x.range_rate_m_s - v).abs() < dv)
+        .copied()
+        .collect()
+}
+
+/// `target` with a carrier phase offset (the relative phase of returns in one cell).
+fn target_phase(r: f64, az_deg: f64, el_deg: f64, dbm: f64, phase: f64, id: u64) -> PathReturn {
+    let mut p = target(r, 0.0, az_deg, el_deg, dbm, id);
+    p.amplitude *= Complex64::from_polar(1.0, phase);
+    p
+}
+
+#[test]
+fn three_targets_in_one_range_doppler_cell_are_three_detections() {
+    // Three reflectors at 20 m range and −6 / 0 / +6 m lateral offset: azimuth ∓asin(0.3) =
+    // ∓17.46°, the same range and Doppler cell. The 8-element horizontal aperture (λ/2) with the
+    // rectangular angle window resolves Δ(sin az) = 2/8 = 0.25; the targets are 0.30 apart.
+    // Each must be reported with its own azimuth (±1°), elevation 0 (±1.5°), range (±0.3 m) and
+    // object id, whatever the carrier phases of the three returns (in phase = hardest).
+    let az = 0.3f64.asin().to_degrees();
+    let mut c = chain();
+    for (seed, phases) in [
+        (1u64, [0.0, 0.0, 0.0]),
+        (2, [0.0, 2.0, 4.0]),
+        (3, [1.0, 0.0, 3.0]),
+        (4, [0.0, std::f64::consts::PI, 0.0]),
+    ] {
+        let paths = [
+            target_phase(20.0, -az, 0.0, -80.0, phases[0], 1),
+            target_phase(20.0, 0.0, 0.0, -80.0, phases[1], 2),
+            target_phase(20.0, az, 0.0, -80.0, phases[2], 3),
+        ];
+        let d = run(&mut c, &paths, seed);
+        let cell = near(&d, 20.0, 0.0, 0.5, 0.5);
+        assert_eq!(cell.len(), 3, "phases {phases:?}: {cell:#?}");
+        for (truth, id) in [(-az, 1u64), (0.0, 2), (az, 3)] {
+            let x = cell
+                .iter()
+                .min_by(|a, b| {
+                    (a.azimuth_rad.to_degrees() - truth)
+                        .abs()
+                        .total_cmp(&(b.azimuth_rad.to_degrees() - truth).abs())
+                })
+                .unwrap();
+            println!(
+                "phases {phases:?} target {truth:.2}°: az {:.3}°, el {:.3}°, range {:.3} m, {:.1} dBm",
+                x.azimuth_rad.to_degrees(),
+                x.elevation_rad.to_degrees(),
+                x.range_m,
+                x.power_dbm
+            );
+            assert!((x.azimuth_rad.to_degrees() - truth).abs() < 1.0, "{x:?}");
+            assert!(x.elevation_rad.to_degrees().abs() < 1.5, "{x:?}");
+            assert!((x.range_m - 20.0).abs() < 0.3, "{x:?}");
+            assert_eq!(x.object_id, id);
+        }
+    }
+    // One angle per cell on request: one detection.
+    let p = ProcessingConfig {
+        max_angle_peaks_per_cell: 1,
+        ..ProcessingConfig::default()
+    };
+    let mut c1 = chain_with(p, &effects(&[], &[]));
+    let paths = [
+        target(20.0, 0.0, -az, 0.0, -80.0, 1),
+        target(20.0, 0.0, 0.0, 0.0, -80.0, 2),
+        target(20.0, 0.0, az, 0.0, -80.0, 3),
+    ];
+    assert_eq!(near(&run(&mut c1, &paths, 1), 20.0, 0.0, 0.5, 0.5).len(), 1);
+}
+
+#[test]
+fn a_single_target_gives_one_detection_per_cell_no_sidelobe_ghosts() {
+    // Rectangular angle window: first sidelobe −13 dB, inside the 15 dB dynamic range, 1.5
+    // resolution cells from the main lobe: only the component fit (sidelobes subtracted with
+    // their target) keeps them out. Also with Hann, at 0° and 45°, weak and very strong targets,
+    // and with an elevation.
+    for window in [Window::Rectangular, Window::Hann] {
+        let p = ProcessingConfig {
+            angle_window: window,
+            ..ProcessingConfig::default()
+        };
+        let mut c = chain_with(p, &effects(&[], &[]));
+        for (i, (az, el, dbm)) in [
+            (0.0, 0.0, -80.0),
+            (45.0, 0.0, -80.0),
+            (0.0, 0.0, -50.0),
+            (45.0, 0.0, -50.0),
+            (-30.0, 5.0, -60.0),
+            (12.0, 0.0, -100.0),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let d = run(&mut c, &[target(31.3, 2.2, az, el, dbm, 5)], i as u64 + 10);
+            let cell = near(&d, 31.3, 2.2, 0.6, 0.3);
+            assert_eq!(cell.len(), 1, "{window:?} {az}° {dbm} dBm: {cell:#?}");
+            let x = cell[0];
+            assert!((x.azimuth_rad.to_degrees() - az).abs() < 1.0, "{x:?}");
+            assert!((x.elevation_rad.to_degrees() - el).abs() < 1.5, "{x:?}");
+        }
+    }
+}
+
+#[test]
+fn a_weak_target_three_resolution_cells_from_a_strong_one_is_found() {
+    // Strong target at sin az = −0.35 and one 20 dB weaker at +0.40: 0.75 = 3 resolution cells
+    // (2/8 each) apart, same range and Doppler. With a 25 dB angle dynamic range both are found
+    // at their azimuths with their power difference (±1.5 dB); with the default 15 dB only the
+    // strong one.
+    let (s1, s2) = ((-0.35f64).asin().to_degrees(), 0.40f64.asin().to_degrees());
+    let paths = [
+        target(27.0, -3.0, s1, 0.0, -70.0, 1),
+        target(27.0, -3.0, s2, 0.0, -90.0, 2),
+    ];
+    let p = ProcessingConfig {
+        angle_peak_dynamic_range_db: 25.0,
+        ..ProcessingConfig::default()
+    };
+    let mut c = chain_with(p, &effects(&[], &[]));
+    let mut cell = near(&run(&mut c, &paths, 3), 27.0, -3.0, 0.5, 0.3);
+    cell.sort_by(|a, b| b.power_dbm.total_cmp(&a.power_dbm));
+    assert_eq!(cell.len(), 2, "{cell:#?}");
+    assert!(
+        (cell[0].azimuth_rad.to_degrees() - s1).abs() < 1.0,
+        "{cell:?}"
+    );
+    assert!(
+        (cell[1].azimuth_rad.to_degrees() - s2).abs() < 1.0,
+        "{cell:?}"
+    );
+    assert_eq!((cell[0].object_id, cell[1].object_id), (1, 2));
+    let dp = cell[0].power_dbm - cell[1].power_dbm;
+    assert!((dp - 20.0).abs() < 1.5, "power difference {dp} dB");
+    for x in &cell {
+        assert!(x.elevation_rad.to_degrees().abs() < 1.5, "{x:?}");
+    }
+    let mut c15 = chain();
+    let cell = near(&run(&mut c15, &paths, 3), 27.0, -3.0, 0.5, 0.3);
+    assert_eq!(cell.len(), 1, "{cell:#?}");
+}
+
+#[test]
+fn angle_peak_and_front_end_keys_are_validated() {
+    let new = |p: &ProcessingConfig, fe: &FrontEndConfig| {
+        RadarChain::new(
+            &WaveformConfig::default(),
+            &ArrayConfig::default(),
+            fe,
+            p,
+            &effects(&[], &[]),
+        )
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default()
+    };
+    let fe = FrontEndConfig::default();
+    for (p, key) in [
+        (
+            ProcessingConfig {
+                angle_peak_dynamic_range_db: -1.0,
+                ..ProcessingConfig::default()
+            },
+            "radar.processing.angle_peak_dynamic_range_db",
+        ),
+        (
+            ProcessingConfig {
+                max_angle_peaks_per_cell: 0,
+                ..ProcessingConfig::default()
+            },
+            "radar.processing.max_angle_peaks_per_cell",
+        ),
+        (
+            ProcessingConfig {
+                max_angle_peaks_per_cell: 99,
+                ..ProcessingConfig::default()
+            },
+            "radar.processing.max_angle_peaks_per_cell",
+        ),
+    ] {
+        assert!(new(&p, &fe).contains(key), "{key}");
+    }
+    let p = ProcessingConfig::default();
+    for (fe, key) in [
+        (
+            FrontEndConfig {
+                input_p1db_dbm: f64::NAN,
+                ..FrontEndConfig::default()
+            },
+            "radar.front_end.input_p1db_dbm",
+        ),
+        (
+            FrontEndConfig {
+                adc_full_scale_dbm: f64::INFINITY,
+                ..FrontEndConfig::default()
+            },
+            "radar.front_end.adc_full_scale_dbm",
+        ),
+        (
+            FrontEndConfig {
+                rapp_smoothness: 0.0,
+                ..FrontEndConfig::default()
+            },
+            "radar.front_end.rapp_smoothness",
+        ),
+    ] {
+        assert!(new(&p, &fe).contains(key), "{key}");
+    }
+    // Serde: the new keys have defaults and round-trip.
+    let fe: FrontEndConfig = serde_json::from_str(r#"{"input_p1db_dbm": -10.0}"#).unwrap();
+    assert_eq!(fe.input_p1db_dbm, -10.0);
+    assert_eq!(
+        fe.rapp_smoothness,
+        FrontEndConfig::default().rapp_smoothness
+    );
+    let p: ProcessingConfig =
+        serde_json::from_str(r#"{"angle_peak_dynamic_range_db": 20.0}"#).unwrap();
+    assert_eq!(p.angle_peak_dynamic_range_db, 20.0);
+    assert_eq!(p.max_angle_peaks_per_cell, 4);
+}
+
+#[test]
+fn compression_follows_the_front_end_p1db() {
+    // A −20 dBm target: linear with the default P1dB (−5 dBm), compressed by several dB with a
+    // P1dB of −35 dBm (the Rapp gain at 15 dB over P1dB, p = 2, and ADC clipping).
+    let e = effects(&[], &[]);
+    let power = |p1db: f64| {
+        let fe = FrontEndConfig {
+            input_p1db_dbm: p1db,
+            adc_full_scale_dbm: p1db + 2.0,
+            ..FrontEndConfig::default()
+        };
+        let mut c = RadarChain::new(
+            &WaveformConfig::default(),
+            &ArrayConfig::default(),
+            &fe,
+            &ProcessingConfig::default(),
+            &e,
+        )
+        .unwrap();
+        strongest(&run(&mut c, &[target(25.3, 1.0, 0.0, 0.0, -20.0, 1)], 1)).power_dbm
+    };
+    let linear = power(-5.0);
+    assert!((linear + 20.0).abs() < 1.0, "{linear}");
+    let compressed = power(-35.0);
+    assert!(compressed < linear - 5.0, "{compressed} vs {linear}");
 }

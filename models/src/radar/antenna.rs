@@ -247,6 +247,18 @@ pub struct FrontEndConfig {
     pub noise_temperature_k: f64,
     /// Polarisation of the Tx and Rx antennas.
     pub polarisation: Polarisation,
+    /// Receiver input 1 dB compression point, dBm (`radar.receiver_compression`). Guessed typical
+    /// value: −5 dBm, the order of magnitude of integrated 77 GHz receivers (TI AWR1843 datasheet,
+    /// SWRS222, lists an in-band P1dB of about −5 dBm at the RX input).
+    pub input_p1db_dbm: f64,
+    /// Smoothness p of the Rapp AM/AM model `g = 1/(1+(A/A_sat)^{2p})^{1/2p}` (Rapp, "Effects of HPA
+    /// nonlinearity on a 4-DPSK/OFDM signal", ECSC 1991). Guessed typical value 2 (solid-state
+    /// amplifiers: p ≈ 2–3).
+    pub rapp_smoothness: f64,
+    /// ADC full scale referred to the receiver input: a sine of this power reaches full scale on I
+    /// and Q, dBm. Guessed typical value −3 dBm (IF gain set so that full scale sits 2 dB above the
+    /// default P1dB).
+    pub adc_full_scale_dbm: f64,
 }
 
 impl Default for FrontEndConfig {
@@ -259,6 +271,9 @@ impl Default for FrontEndConfig {
             system_losses_db: 3.0,
             noise_temperature_k: 290.0,
             polarisation: Polarisation::H,
+            input_p1db_dbm: -5.0,
+            rapp_smoothness: 2.0,
+            adc_full_scale_dbm: -3.0,
         }
     }
 }
@@ -270,6 +285,8 @@ impl FrontEndConfig {
             ("tx_power_dbm", self.tx_power_dbm),
             ("noise_figure_db", self.noise_figure_db),
             ("system_losses_db", self.system_losses_db),
+            ("input_p1db_dbm", self.input_p1db_dbm),
+            ("adc_full_scale_dbm", self.adc_full_scale_dbm),
         ] {
             if !v.is_finite() {
                 return Err(ModelError::Config(format!(
@@ -287,6 +304,12 @@ impl FrontEndConfig {
             return Err(ModelError::Config(format!(
                 "`radar.front_end.noise_temperature_k` must be > 0 K, got {}",
                 self.noise_temperature_k
+            )));
+        }
+        if !(self.rapp_smoothness.is_finite() && (0.1..=100.0).contains(&self.rapp_smoothness)) {
+            return Err(ModelError::Config(format!(
+                "`radar.front_end.rapp_smoothness` must be in [0.1, 100], got {}",
+                self.rapp_smoothness
             )));
         }
         self.tx_pattern.validate("radar.front_end.tx_pattern")?;

@@ -1,6 +1,7 @@
 //! FMCW baseband: IF cube synthesis (samples × chirps × virtual channels) from the propagation
 //! paths with thermal noise and impairments, and the processing chain (range FFT, Doppler FFT,
-//! non-coherent integration, 2-D CFAR, peak interpolation, angle FFT) to detections.
+//! non-coherent integration, 2-D CFAR, peak interpolation, angle FFT with a joint fit of several
+//! targets per range-Doppler cell) to detections.
 //!
 //! API contract (used by the radar sensor): one [`RadarChain`] per model instance, planned once;
 //! per frame [`RadarChain::run`] synthesises the IF cube from the paths and processes it into
@@ -51,7 +52,7 @@ use crate::sensor::ModelError;
 
 use super::PathReturn;
 use super::antenna::FrontEndConfig;
-use super::processing::{self, CfarKind, ProcessingConfig};
+use super::processing::{self, CfarKind, MAX_ANGLE_PEAKS, ProcessingConfig};
 use super::waveform::{ArrayConfig, C_M_S, InterfererConfig, PhaseNoiseConfig, WaveformConfig};
 
 type C32 = Complex<f32>;
@@ -98,23 +99,6 @@ pub const INTERFERENCE: EffectInfo = EffectInfo {
 /// Effects declared by this module.
 pub const EFFECTS: &[EffectInfo] = &[RECEIVER_COMPRESSION, PHASE_NOISE, INTERFERENCE];
 
-/// Receiver input 1 dB compression point, dBm (TI AWR1843 datasheet order of magnitude; guessed).
-/// To move into `FrontEndConfig::input_p1db_dbm`.
-fn receiver_p1db_dbm(_front_end: &FrontEndConfig) -> f64 {
-    -5.0
-}
-
-/// Rapp smoothness p (2: a typical solid-state amplifier; guessed).
-fn rapp_smoothness(_front_end: &FrontEndConfig) -> f64 {
-    2.0
-}
-
-/// ADC full scale referred to the receiver input: a sine of this power reaches full scale on I and
-/// Q, dBm (IF gain set so that full scale sits 2 dB above P1dB; guessed).
-fn adc_full_scale_dbm(front_end: &FrontEndConfig) -> f64 {
-    receiver_p1db_dbm(front_end) + 2.0
-}
-
 /// One detection of the processing chain (sensor frame).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ChainDetection {
@@ -130,7 +114,9 @@ pub struct ChainDetection {
     pub power_dbm: f64,
     /// Signal-to-noise ratio after processing, dB.
     pub snr_db: f64,
-    /// Ground-truth object of the strongest path in the detected cell.
+    /// Ground-truth object of the path within one range and Doppler bin of the detection that is
+    /// nearest in azimuth (paths within half an angular resolution cell count as equally near;
+    /// the strongest of those).
     pub object_id: u64,
 }
 
@@ -173,6 +159,8 @@ struct PathPre {
     range_rate_m_s: f64,
     amplitude_sq_w: f64,
     object_id: u64,
+    /// Horizontal direction sine of the two-way path, mean of Tx and Rx `cos el sin az`.
+    sin_az: f64,
 }
 
 /// Cells per rayon task.
@@ -218,7 +206,6 @@ pub struct RadarChain {
     az_len: usize,
     el_len: usize,
     y_min: i32,
-    z_min: i32,
     has_el: bool,
     angle_win: Vec<f32>,
     // CFAR tables per range bin: reference cell count and α.
@@ -257,16 +244,28 @@ pub struct RadarChain {
     hits: Vec<(usize, usize)>,
     os_scratch: Vec<f32>,
     timings_s: [f64; 4],
-    dets: Vec<Option<ChainDetection>>,
+    dets: Vec<[Option<ChainDetection>; MAX_ANGLE_PEAKS]>,
     /// (range bin, Doppler bin, index) of every path, sorted by range bin.
     path_bins: Vec<(f64, f64, u32)>,
-    /// e^{−j2π r q / N_el} for the occupied rows r (row-major per occupied row).
-    el_twiddle: Vec<C32>,
     /// Rows (elevation indices) of the angle grid holding virtual elements.
     el_rows: Vec<usize>,
     /// Σ w_k² of the angle window.
     angle_win_sq: f64,
+    /// Per virtual element: index into `el_rows` of its row.
+    el_row_of: Vec<usize>,
+    /// Per virtual element: its column is occupied in every row (matched sub-apertures for the
+    /// elevation estimate).
+    el_match: Vec<bool>,
+    /// Angular resolution in sin-space: main-lobe half width of the angle window, in cells of
+    /// 2 / N_az (N_az: horizontal aperture in λ/2).
+    angle_res_sin: f64,
 }
+
+/// Re-estimation sweeps over all components after each new angle component (RELAX).
+const RELAX_SWEEPS: usize = 1;
+
+/// Gauss-Newton iterations (at most) of the joint azimuth refinement.
+const JOINT_ITERATIONS: usize = 12;
 
 /// SplitMix64 finaliser: decorrelated per-item seeds.
 fn mix(mut z: u64) -> u64 {
@@ -303,6 +302,7 @@ impl RadarChain {
         waveform.validate()?;
         array.validate()?;
         processing.validate()?;
+        front_end.validate()?;
         let (ns, nc) = (waveform.samples_per_chirp, waveform.chirps_per_frame);
         let (ntx, nrx) = (array.n_tx(), array.n_rx());
         let nk = ntx * nrx;
@@ -370,6 +370,26 @@ impl RadarChain {
             .collect();
         el_rows.sort_unstable();
         el_rows.dedup();
+        let el_row_of: Vec<usize> = virt
+            .iter()
+            .map(|p| {
+                let r = ((p[1] - z_min) as usize).min(el_len - 1);
+                el_rows.binary_search(&r).unwrap_or(0)
+            })
+            .collect();
+        // Columns present in every occupied row; without any, all elements (no matching).
+        let col_in_all = |y: i32| {
+            el_rows.iter().all(|&r| {
+                virt.iter()
+                    .any(|p| p[0] == y && ((p[1] - z_min) as usize).min(el_len - 1) == r)
+            })
+        };
+        let mut el_match: Vec<bool> = virt.iter().map(|p| col_in_all(p[0])).collect();
+        if !el_match.iter().any(|&m| m) {
+            el_match.fill(true);
+        }
+        let angle_res_sin =
+            processing.angle_window.main_lobe_half_width_bins() * 2.0 / (y_max - y_min + 1) as f64;
         let angle_win_sq: f64 = angle_win.iter().map(|&w| (w as f64).powi(2)).sum();
         // NUFFT plan: grid 2 N_s, ES kernel of W points; deconvolution 1 / ((M/2π) ψ̂(k)).
         let nufft_m = (2 * ns).max(2 * NUFFT_W);
@@ -414,11 +434,11 @@ impl RadarChain {
         };
 
         let compression = effects.is_on(&RECEIVER_COMPRESSION).then(|| {
-            let p = rapp_smoothness(front_end);
-            let a1db = (1e-3 * 10f64.powf(receiver_p1db_dbm(front_end) / 10.0)).sqrt();
+            let p = front_end.rapp_smoothness;
+            let a1db = (1e-3 * 10f64.powf(front_end.input_p1db_dbm / 10.0)).sqrt();
             let a_sat = a1db / (10f64.powf(p / 10.0) - 1.0).powf(1.0 / (2.0 * p));
             // A complex sinusoid of power P has |I| ≤ √P.
-            let fs = (1e-3 * 10f64.powf(adc_full_scale_dbm(front_end) / 10.0)).sqrt();
+            let fs = (1e-3 * 10f64.powf(front_end.adc_full_scale_dbm / 10.0)).sqrt();
             (a_sat as f32, p as f32, fs as f32)
         });
         let nslots = nc * if waveform.tdm_mimo { ntx } else { 1 };
@@ -479,7 +499,6 @@ impl RadarChain {
             az_len,
             el_len,
             y_min,
-            z_min,
             has_el,
             angle_win,
             cfar_count,
@@ -516,17 +535,11 @@ impl RadarChain {
             timings_s: [0.0; 4],
             dets: Vec::new(),
             path_bins: Vec::new(),
-            el_twiddle: el_rows
-                .iter()
-                .flat_map(|&r| {
-                    (0..el_len).map(move |q| {
-                        let ph = -2.0 * std::f64::consts::PI * (r * q) as f64 / el_len as f64;
-                        C32::new(ph.cos() as f32, ph.sin() as f32)
-                    })
-                })
-                .collect(),
             el_rows,
             angle_win_sq,
+            el_row_of,
+            el_match,
+            angle_res_sin,
         };
         Ok(chain)
     }
@@ -608,6 +621,9 @@ impl RadarChain {
                 range_rate_m_s: p.range_rate_m_s,
                 amplitude_sq_w: a2,
                 object_id: p.object_id,
+                sin_az: 0.5
+                    * (p.tx_elevation_rad.cos() * p.tx_azimuth_rad.sin()
+                        + p.rx_elevation_rad.cos() * p.rx_azimuth_rad.sin()),
             });
             let u = |az: f64, el: f64| [el.cos() * az.sin(), el.sin()];
             // The NUFFT evaluates k = n − N_s/2 ∈ [−N_s/2, N_s/2): fold e^{jω N_s/2} in here.
@@ -1161,7 +1177,7 @@ impl RadarChain {
                 |b, &(n, d)| this.estimate_one(n, d, b),
             )
             .collect_into_vec(&mut dets);
-        out.extend(dets.iter().flatten());
+        out.extend(dets.iter().flatten().flatten());
         self.hits = hits;
         self.dets = dets;
         let max = self.proc.max_detections;
@@ -1173,14 +1189,51 @@ impl RadarChain {
 
     fn angle_bufs(&self) -> AngleBufs {
         AngleBufs {
-            grid: vec![C32::default(); self.az_len * self.el_len],
+            line: vec![C32::default(); self.az_len],
             scratch: vec![C32::default(); self.fft_az.get_inplace_scratch_len()],
-            col: vec![C32::default(); self.el_len],
+            x: vec![Complex64::default(); self.nk],
+            d: vec![Complex64::default(); self.nk],
+            steer: vec![Complex64::default(); MAX_ANGLE_PEAKS * self.nk],
+            rows: vec![Complex64::default(); self.el_rows.len()],
+            tmp: vec![Complex64::default(); self.nk],
+            r: vec![Complex64::default(); self.nk],
+            r0: vec![Complex64::default(); self.nk],
+            jac: vec![Complex64::default(); MAX_ANGLE_PEAKS * self.nk],
         }
     }
 
-    /// One CFAR hit at range bin `n`, Doppler bin `d` → detection (None below `min_snr_db`).
-    fn estimate_one(&self, n: usize, d: usize, b: &mut AngleBufs) -> Option<ChainDetection> {
+    /// One CFAR hit at range bin `n`, Doppler bin `d` → up to `max_angle_peaks_per_cell`
+    /// detections, one per resolved angle component (none below `min_snr_db`).
+    ///
+    /// Several targets in one cell (same range and Doppler) are separated in angle by a
+    /// sequential fit (CLEAN / RELAX: Li & Stoica, "Efficient mixed-spectrum estimation with
+    /// applications to target feature extraction", IEEE Trans. SP 44(2), 1996): the strongest
+    /// peak of the zero-padded azimuth spectrum gives a component (interpolated azimuth sine,
+    /// elevation, least-squares amplitude); its steering vector is subtracted and the residual's
+    /// spectrum gives the next candidate (each existing component is then re-fitted once within
+    /// half a resolution cell of its position, the others subtracted). Candidates stop when one
+    /// fails (a) or (b) below or lies within half a cell of a component. The complete set is then
+    /// refined jointly (Gauss-Newton on the variable-projection cost, [`Self::refine_jointly`]:
+    /// close, in-phase targets bias a one-at-a-time fit by up to a few degrees) and accepted when
+    /// every component but the strongest (a) has a beam power within
+    /// `angle_peak_dynamic_range_db` of the strongest, (b) clears both `min_snr_db` and the
+    /// noise-referred threshold `ln(1/P_FA)` (a noise-only beam output is exponential:
+    /// P(|b|² > T σ²) = e^{−T}; `P_FA` of the CFAR), (c) lies at least one angular resolution
+    /// cell from every other component (main-lobe half width: 2/N_az in sin-space for the
+    /// rectangular window, 4/N_az for Hann, N_az the horizontal aperture in λ/2); otherwise the
+    /// weakest component is dropped and the rest refined again. Subtracting the fitted components
+    /// removes their window sidelobes, so sidelobes never become detections (the rectangular
+    /// window's −13 dB sidelobes lie within the default 15 dB dynamic range and 1.5 cells from
+    /// the main lobe: a plain local-maximum search would report them).
+    // Small dense linear algebra over component indices: index loops are the clearest form.
+    #[allow(clippy::needless_range_loop)]
+    fn estimate_one(
+        &self,
+        n: usize,
+        d: usize,
+        b: &mut AngleBufs,
+    ) -> [Option<ChainDetection>; MAX_ANGLE_PEAKS] {
+        let mut res = [None; MAX_ANGLE_PEAKS];
         let (ns, nc, nk) = (self.ns, self.nc, self.nk);
         let dv = self.lambda_m / (2.0 * nc as f64 * self.t_rep_s);
         let p = &self.power;
@@ -1206,128 +1259,528 @@ impl RadarChain {
         let v = (d_signed + dd) * dv;
         let fb = (n as f64 + dn) * self.fs_hz / ns as f64;
         let range = C_M_S * (fb - 2.0 * v / self.lambda_m) / (2.0 * self.slope);
-        // Angle: TDM Doppler compensation, then zero-padded 2-D FFT over the λ/2 grid. A
-        // virtual element at (y, z) sees x ∝ e^{−jπ(y s_y + z s_z)}, s_y = cos el sin az,
-        // s_z = sin el, so the forward FFT peaks at bin q = −s A / 2.
-        let (az_len, el_len) = (self.az_len, self.el_len);
-        b.grid.fill(C32::default());
+        // The cell's channel vector with the TDM Doppler phase of each Tx slot removed. A virtual
+        // element at (y, z) (λ/2 units) sees x ∝ e^{−jπ(y s_y + z s_z)}, s_y = cos el sin az,
+        // s_z = sin el.
         for k in 0..nk {
-            let mut x = self.dop[(n * nk + k) * nc + d] * self.angle_win[k];
+            let mut x = self.dop[(n * nk + k) * nc + d];
             if self.tdm && self.proc.tdm_doppler_compensation {
                 let t = k / self.nrx;
                 let ph =
                     -4.0 * std::f64::consts::PI * v * t as f64 * self.t_chirp_s / self.lambda_m;
                 x *= C32::new(ph.cos() as f32, ph.sin() as f32);
             }
-            let [y, z] = self.virt[k];
-            let iy = (y - self.y_min) as usize;
-            let iz = (z - self.z_min) as usize;
-            b.grid[iz.min(el_len - 1) * az_len + iy] += x;
+            b.x[k] = Complex64::new(x.re as f64, x.im as f64);
         }
-        for &iz in &self.el_rows {
-            self.fft_az
-                .process_with_scratch(&mut b.grid[iz * az_len..(iz + 1) * az_len], &mut b.scratch);
+        let noise_beam = self.noise_cell * self.angle_win_sq;
+        let snr_db_of = |beam: f64| 10.0 * ((beam - noise_beam) / noise_beam).max(1e-12).log10();
+        let maxp = self.proc.max_angle_peaks_per_cell.clamp(1, MAX_ANGLE_PEAKS);
+        let mut comps = [AngleComp::default(); MAX_ANGLE_PEAKS];
+        b.d.copy_from_slice(&b.x);
+        comps[0] = self.fit_component(b, 0, None);
+        if snr_db_of(comps[0].beam) < self.proc.min_snr_db {
+            return res;
         }
-        if self.has_el {
-            // Elevation DFT per column, directly over the few occupied rows.
-            for iy in 0..az_len {
-                for (q, out) in b.col.iter_mut().enumerate() {
-                    let mut acc = C32::default();
-                    for (ri, &r) in self.el_rows.iter().enumerate() {
-                        acc += b.grid[r * az_len + iy] * self.el_twiddle[ri * el_len + q];
-                    }
-                    *out = acc;
-                }
-                for iz in 0..el_len {
-                    b.grid[iz * az_len + iy] = b.col[iz];
+        let mut count = 1;
+        // Secondary peaks: beam/noise ≥ ln(1/P_FA) and ≥ 1 + 10^{min_snr/10}.
+        let min_ratio = (1.0 / self.proc.cfar.p_fa)
+            .ln()
+            .max(1.0 + 10f64.powf(self.proc.min_snr_db / 10.0));
+        let dyn_range = 10f64.powf(-self.proc.angle_peak_dynamic_range_db / 10.0);
+        while count < maxp {
+            // Residual after all components; its strongest peak is the candidate.
+            self.residual(b, &comps[..count], usize::MAX);
+            let cand = self.fit_component(b, count, None);
+            let strongest = comps[..count].iter().map(|c| c.beam).fold(0.0, f64::max);
+            let crowded = comps[..count]
+                .iter()
+                .any(|c| (c.sy - cand.sy).abs() < 0.5 * self.angle_res_sin);
+            if crowded || cand.beam < dyn_range * strongest || cand.beam < min_ratio * noise_beam {
+                break;
+            }
+            comps[count] = cand;
+            count += 1;
+            // RELAX sweeps, each component re-fitted near its position with the others removed.
+            for _ in 0..RELAX_SWEEPS {
+                for j in 0..count {
+                    self.residual(b, &comps[..count], j);
+                    comps[j] = self.fit_component(b, j, Some(comps[j].sy));
                 }
             }
         }
-        let (mut best, mut bi) = (-1f32, 0usize);
-        for (i, v) in b.grid.iter().enumerate() {
+        // Joint refinement of the complete model, then acceptance; a failing set loses its
+        // weakest component and is refined again.
+        while count > 1 {
+            self.refine_jointly(b, &mut comps[..count]);
+            if self.components_ok(&comps[..count], dyn_range, min_ratio * noise_beam) {
+                break;
+            }
+            let weakest = (0..count)
+                .min_by(|&i, &l| comps[i].beam.total_cmp(&comps[l].beam))
+                .unwrap_or(0);
+            comps.copy_within(weakest + 1..count, weakest);
+            count -= 1;
+            for j in 0..count {
+                self.steering(comps[j].sy, comps[j].sz, b, j);
+            }
+            if count == 1 {
+                self.residual(b, &comps[..1], 0);
+                comps[0] = self.fit_component(b, 0, Some(comps[0].sy));
+            }
+        }
+        let comps = &mut comps[..count];
+        comps.sort_by(|a, b| b.beam.total_cmp(&a.beam));
+        // Power: per-channel amplitude minus its noise (E|â|² = |a|² + σ²_cell/N_k), straddle
+        // corrected with the range-Doppler interpolation (peak / v0).
+        let straddle = peak / (v0 as f64).max(1e-38);
+        let (rb, db) = (n as f64 + dn, d_signed + dd);
+        for (slot, c) in res.iter_mut().zip(comps.iter()) {
+            let snr_db = snr_db_of(c.beam);
+            if snr_db < self.proc.min_snr_db {
+                continue;
+            }
+            let el = c.sz.clamp(-1.0, 1.0).asin();
+            let az = (c.sy / el.cos().max(1e-9)).clamp(-1.0, 1.0).asin();
+            let sig = ((c.amp.norm_sqr() - self.noise_cell / nk as f64) * straddle).max(1e-30);
+            let power_w = sig / self.coherent_gain;
+            *slot = Some(ChainDetection {
+                range_m: range,
+                range_rate_m_s: v,
+                azimuth_rad: az,
+                elevation_rad: el,
+                power_dbm: 10.0 * (power_w * 1e3).log10(),
+                snr_db,
+                object_id: self.object_of(rb, db, c.sy),
+            });
+        }
+        res
+    }
+
+    /// Concentrated least-squares cost `‖x − E(s) â‖²` of the components (steering vectors in
+    /// `b.steer`, component `j` replaced by azimuth sine `sy_j` when given), with the amplitudes
+    /// `â = (EᴴE)⁻¹ Eᴴ x` solved jointly (written to `amps`).
+    // Small dense linear algebra over component indices: index loops are the clearest form.
+    #[allow(clippy::needless_range_loop)]
+    fn joint_cost(
+        &self,
+        b: &mut AngleBufs,
+        comps: &[AngleComp],
+        replace: Option<(usize, f64)>,
+        amps: &mut [Complex64; MAX_ANGLE_PEAKS],
+    ) -> f64 {
+        let nk = self.nk;
+        let kc = comps.len();
+        if let Some((j, sy)) = replace {
+            for (e, p) in b.tmp.iter_mut().zip(&self.virt) {
+                let ph = -std::f64::consts::PI * (p[0] as f64 * sy + p[1] as f64 * comps[j].sz);
+                *e = Complex64::from_polar(1.0, ph);
+            }
+        }
+        let col = |b: &AngleBufs, i: usize, k: usize| match replace {
+            Some((j, _)) if j == i => b.tmp[k],
+            _ => b.steer[i * nk + k],
+        };
+        let mut g = [[Complex64::default(); MAX_ANGLE_PEAKS + 1]; MAX_ANGLE_PEAKS];
+        for i in 0..kc {
+            for l in 0..kc {
+                let mut s = Complex64::default();
+                for k in 0..nk {
+                    s += col(b, i, k).conj() * col(b, l, k);
+                }
+                g[i][l] = s;
+            }
+            let mut r = Complex64::default();
+            for k in 0..nk {
+                r += col(b, i, k).conj() * b.x[k];
+            }
+            g[i][kc] = r;
+        }
+        // Gaussian elimination with partial pivoting on the augmented K × (K+1) system.
+        for c in 0..kc {
+            let piv = (c..kc)
+                .max_by(|&a, &bb| g[a][c].norm_sqr().total_cmp(&g[bb][c].norm_sqr()))
+                .unwrap_or(c);
+            g.swap(c, piv);
+            let d = g[c][c];
+            if d.norm_sqr() < 1e-30 {
+                return f64::INFINITY;
+            }
+            for r in c + 1..kc {
+                let f = g[r][c] / d;
+                for cc in c..=kc {
+                    let v = g[c][cc];
+                    g[r][cc] -= f * v;
+                }
+            }
+        }
+        for c in (0..kc).rev() {
+            let mut s = g[c][kc];
+            for cc in c + 1..kc {
+                s -= g[c][cc] * amps[cc];
+            }
+            amps[c] = s / g[c][c];
+        }
+        // ‖x − E â‖² = ‖x‖² − Re(rᴴ â) at the LS solution; evaluated directly for robustness.
+        let mut j = 0.0;
+        for k in 0..nk {
+            let mut m = b.x[k];
+            for (i, a) in amps.iter().enumerate().take(kc) {
+                m -= a * col(b, i, k);
+            }
+            j += m.norm_sqr();
+            b.r[k] = m;
+        }
+        j
+    }
+
+    /// Joint refinement of the azimuths of several components: Gauss-Newton on the projected
+    /// residual `x − E(s)(EᴴE)⁻¹Eᴴx` (variable projection: amplitudes solved jointly at every
+    /// evaluation; Golub & Pereyra, SIAM J. Numer. Anal. 10(2), 1973), forward-difference
+    /// Jacobian, step halving until the cost falls; then joint amplitudes, elevations
+    /// (matched sub-apertures on each component's data) and beam powers.
+    // Small dense linear algebra over component indices: index loops are the clearest form.
+    #[allow(clippy::needless_range_loop)]
+    fn refine_jointly(&self, b: &mut AngleBufs, comps: &mut [AngleComp]) {
+        let kc = comps.len();
+        let mut amps = [Complex64::default(); MAX_ANGLE_PEAKS];
+        let nk = self.nk;
+        const DELTA: f64 = 1e-6;
+        let max_step = 0.5 * self.angle_res_sin;
+        for _ in 0..JOINT_ITERATIONS {
+            let j0 = self.joint_cost(b, comps, None, &mut amps);
+            b.r0.copy_from_slice(&b.r);
+            // Jacobian of the projected residual by forward differences, one column per azimuth.
+            for j in 0..kc {
+                self.joint_cost(b, comps, Some((j, comps[j].sy + DELTA)), &mut amps);
+                for k in 0..nk {
+                    b.jac[j * nk + k] = (b.r[k] - b.r0[k]) / DELTA;
+                }
+            }
+            // Gauss-Newton normal equations over real Δs (Levenberg damping 1e-9 · trace).
+            let mut a = [[0f64; MAX_ANGLE_PEAKS + 1]; MAX_ANGLE_PEAKS];
+            for i in 0..kc {
+                for l in 0..kc {
+                    a[i][l] = (0..nk)
+                        .map(|k| (b.jac[i * nk + k].conj() * b.jac[l * nk + k]).re)
+                        .sum();
+                }
+                a[i][kc] = -(0..nk)
+                    .map(|k| (b.jac[i * nk + k].conj() * b.r0[k]).re)
+                    .sum::<f64>();
+            }
+            let trace: f64 = (0..kc).map(|i| a[i][i]).sum();
+            for (i, row) in a.iter_mut().enumerate().take(kc) {
+                row[i] += 1e-9 * trace + 1e-300;
+            }
+            let mut step = [0f64; MAX_ANGLE_PEAKS];
+            if !solve_real(&mut a, kc, &mut step) {
+                break;
+            }
+            let mut scale = 1.0;
+            let mut accepted = false;
+            for _ in 0..6 {
+                for j in 0..kc {
+                    let sy = (comps[j].sy + (scale * step[j]).clamp(-max_step, max_step))
+                        .clamp(-1.0, 1.0);
+                    self.steering(sy, comps[j].sz, b, j);
+                }
+                // Components may not merge (ill-conditioned pairs of nearly equal steering
+                // vectors with large opposite amplitudes): keep them half a cell apart.
+                let mut apart = true;
+                for i in 0..kc {
+                    for l in i + 1..kc {
+                        let si = comps[i].sy + (scale * step[i]).clamp(-max_step, max_step);
+                        let sl = comps[l].sy + (scale * step[l]).clamp(-max_step, max_step);
+                        apart &= (si - sl).abs() >= 0.5 * self.angle_res_sin;
+                    }
+                }
+                if apart && self.joint_cost(b, comps, None, &mut amps) < j0 {
+                    accepted = true;
+                    break;
+                }
+                scale *= 0.5;
+            }
+            let mut moved = 0f64;
+            for j in 0..kc {
+                if accepted {
+                    let d = (scale * step[j]).clamp(-max_step, max_step);
+                    comps[j].sy = (comps[j].sy + d).clamp(-1.0, 1.0);
+                    moved = moved.max(d.abs());
+                }
+                self.steering(comps[j].sy, comps[j].sz, b, j);
+            }
+            if !accepted || moved < 1e-7 {
+                break;
+            }
+        }
+        self.joint_cost(b, comps, None, &mut amps);
+        for (c, a) in comps.iter_mut().zip(&amps) {
+            c.amp = *a;
+        }
+        // Elevation and beam of each component from its own data (the others subtracted).
+        for j in 0..kc {
+            self.residual(b, comps, j);
+            let sz = self.elevation_sine(b, comps[j].sy);
+            comps[j].sz = sz;
+            self.steering(comps[j].sy, sz, b, j);
+            let mut beam = Complex64::default();
+            let nk = self.nk;
+            for ((dk, e), w) in
+                b.d.iter()
+                    .zip(&b.steer[j * nk..(j + 1) * nk])
+                    .zip(&self.angle_win)
+            {
+                beam += dk * e.conj() * *w as f64;
+            }
+            comps[j].beam = beam.norm_sqr();
+        }
+        self.joint_cost(b, comps, None, &mut amps);
+        for (c, a) in comps.iter_mut().zip(&amps) {
+            c.amp = *a;
+        }
+    }
+
+    /// `b.d = b.x − Σ_{j ≠ skip} a_j e_j` (steering vectors in `b.steer`).
+    fn residual(&self, b: &mut AngleBufs, comps: &[AngleComp], skip: usize) {
+        let nk = self.nk;
+        b.d.copy_from_slice(&b.x);
+        for (j, c) in comps.iter().enumerate() {
+            if j == skip {
+                continue;
+            }
+            for (dk, e) in b.d.iter_mut().zip(&b.steer[j * nk..(j + 1) * nk]) {
+                *dk -= c.amp * e;
+            }
+        }
+    }
+
+    /// Steering vector `e^{−jπ(y s_y + z s_z)}` of component slot `j` into `b.steer`.
+    fn steering(&self, sy: f64, sz: f64, b: &mut AngleBufs, j: usize) {
+        let nk = self.nk;
+        for (e, p) in b.steer[j * nk..(j + 1) * nk].iter_mut().zip(&self.virt) {
+            let ph = -std::f64::consts::PI * (p[0] as f64 * sy + p[1] as f64 * sz);
+            *e = Complex64::from_polar(1.0, ph);
+        }
+    }
+
+    /// One component from `b.d`: azimuth from the strongest peak of the zero-padded spectrum of
+    /// the windowed aperture projected onto the horizontal axis (the elevation-0 beam; rows
+    /// sharing their phase centre keep it unbiased), parabolic interpolation; elevation from the
+    /// matched sub-apertures; least-squares amplitude. Steering vector into slot `j`.
+    fn fit_component(&self, b: &mut AngleBufs, j: usize, near: Option<f64>) -> AngleComp {
+        let az_len = self.az_len;
+        b.line.fill(C32::default());
+        for ((dk, p), w) in b.d.iter().zip(&self.virt).zip(&self.angle_win) {
+            let iy = (p[0] - self.y_min) as usize;
+            b.line[iy] += C32::new((dk.re * *w as f64) as f32, (dk.im * *w as f64) as f32);
+        }
+        self.fft_az
+            .process_with_scratch(&mut b.line, &mut b.scratch);
+        let (mut best, mut qy) = (-1f32, 0usize);
+        // Bin of a sine: q = −s A / 2 (mod A); a re-fit stays within half a resolution cell.
+        let window = near.map(|s0| {
+            let q0 = (-s0 * az_len as f64 / 2.0).rem_euclid(az_len as f64);
+            (q0, 0.25 * self.angle_res_sin * az_len as f64)
+        });
+        for (i, v) in b.line.iter().enumerate() {
+            if let Some((q0, half)) = window {
+                let dq = (i as f64 - q0).rem_euclid(az_len as f64);
+                if dq.min(az_len as f64 - dq) > half {
+                    continue;
+                }
+            }
             let m = v.norm_sqr();
             if m > best {
                 best = m;
+                qy = i;
+            }
+        }
+        let mag = |i: usize| b.line[i % az_len].norm_sqr() as f64;
+        let (oy, _) = processing::parabolic_peak(mag(qy + az_len - 1), best as f64, mag(qy + 1));
+        let signed = if qy >= az_len / 2 {
+            qy as f64 - az_len as f64
+        } else {
+            qy as f64
+        };
+        let sy = (-2.0 * (signed + oy) / az_len as f64).clamp(-1.0, 1.0);
+        let sz = self.elevation_sine(b, sy);
+        self.steering(sy, sz, b, j);
+        let nk = self.nk;
+        let (mut a, mut beam) = (Complex64::default(), Complex64::default());
+        for ((dk, e), w) in
+            b.d.iter()
+                .zip(&b.steer[j * nk..(j + 1) * nk])
+                .zip(&self.angle_win)
+        {
+            let t = dk * e.conj();
+            a += t;
+            beam += t * *w as f64;
+        }
+        AngleComp {
+            sy,
+            sz,
+            amp: a / nk as f64,
+            beam: beam.norm_sqr(),
+        }
+    }
+
+    /// Elevation sine of the data in `b.d` at azimuth sine `sy`: each occupied row is steered to
+    /// `sy` over the columns common to all rows (identical horizontal sub-apertures, so targets
+    /// sharing one elevation leave no inter-row phase, whatever their azimuths), then the row
+    /// phases give s_z: for two rows `s_z = −arg(S₁ S₀*) / (π Δz)`; for more, the maximum of
+    /// `|Σ_r S_r e^{jπ z_r s}|` on a fine grid, interpolated.
+    fn elevation_sine(&self, b: &mut AngleBufs, sy: f64) -> f64 {
+        if !self.has_el || self.el_rows.len() < 2 {
+            return 0.0;
+        }
+        b.rows.fill(Complex64::default());
+        for (k, (dk, p)) in b.d.iter().zip(&self.virt).enumerate() {
+            if self.el_match[k] {
+                let ph = std::f64::consts::PI * p[0] as f64 * sy;
+                b.rows[self.el_row_of[k]] += dk * Complex64::from_polar(1.0, ph);
+            }
+        }
+        let rz = |ri: usize| self.el_rows[ri] as f64;
+        if self.el_rows.len() == 2 {
+            let dz = rz(1) - rz(0);
+            return (-(b.rows[1] * b.rows[0].conj()).arg() / (std::f64::consts::PI * dz))
+                .clamp(-1.0, 1.0);
+        }
+        let m = 8 * self.el_len;
+        let val = |i: usize| {
+            let s = -1.0 + 2.0 * (i % m) as f64 / m as f64;
+            b.rows
+                .iter()
+                .enumerate()
+                .map(|(ri, sr)| sr * Complex64::from_polar(1.0, std::f64::consts::PI * rz(ri) * s))
+                .sum::<Complex64>()
+                .norm_sqr()
+        };
+        let (mut best, mut bi) = (-1.0, 0);
+        for i in 0..m {
+            let v = val(i);
+            if v > best {
+                best = v;
                 bi = i;
             }
         }
-        let (qy, qz) = (bi % az_len, bi / az_len);
-        let mag = |iy: usize, iz: usize| b.grid[iz * az_len + iy].norm_sqr() as f64;
-        let (oy, vy) = processing::parabolic_peak(
-            mag((qy + az_len - 1) % az_len, qz),
-            best as f64,
-            mag((qy + 1) % az_len, qz),
-        );
-        let (oz, vz) = if self.has_el {
-            processing::parabolic_peak(
-                mag(qy, (qz + el_len - 1) % el_len),
-                best as f64,
-                mag(qy, (qz + 1) % el_len),
-            )
-        } else {
-            (0.0, best as f64)
-        };
-        let beam = vy + vz - best as f64;
-        let signed = |q: usize, len: usize| {
-            if q >= len / 2 {
-                q as f64 - len as f64
-            } else {
-                q as f64
+        let (o, _) = processing::parabolic_peak(val(bi + m - 1), best, val(bi + 1));
+        (-1.0 + 2.0 * (bi as f64 + o) / m as f64).clamp(-1.0, 1.0)
+    }
+
+    /// Acceptance of a set of components: every one but the strongest within the dynamic range
+    /// of the strongest and above `min_beam`; no two closer than the angular resolution.
+    fn components_ok(&self, comps: &[AngleComp], dyn_range: f64, min_beam: f64) -> bool {
+        let strongest = comps.iter().map(|c| c.beam).fold(0.0, f64::max);
+        for (i, c) in comps.iter().enumerate() {
+            if c.beam < strongest && (c.beam < dyn_range * strongest || c.beam < min_beam) {
+                return false;
             }
-        };
-        let sy = -2.0 * (signed(qy, az_len) + oy) / az_len as f64;
-        let sz = if self.has_el {
-            -2.0 * (signed(qz, el_len) + oz) / el_len as f64
-        } else {
-            0.0
-        };
-        let el = sz.clamp(-1.0, 1.0).asin();
-        let az = (sy / el.cos().max(1e-9)).clamp(-1.0, 1.0).asin();
-        // SNR after coherent beamforming against the known per-channel cell noise σ² Σw_r² Σw_d²
-        // (beamformer noise: that × Σ w_k²); power from the non-coherent sum minus its noise.
-        let noise_beam = self.noise_cell * self.angle_win_sq;
-        let snr = ((beam - noise_beam) / noise_beam).max(1e-12);
-        let snr_db = 10.0 * snr.log10();
-        if snr_db < self.proc.min_snr_db {
-            return None;
+            for o in &comps[i + 1..] {
+                if (c.sy - o.sy).abs() < self.angle_res_sin {
+                    return false;
+                }
+            }
         }
-        let sig = ((peak - nk as f64 * self.noise_cell) / nk as f64).max(1e-30);
-        let power_w = sig / self.coherent_gain;
-        // Object: strongest path within one bin of the detection in range and Doppler.
-        let (rb, db) = (n as f64 + dn, d_signed + dd);
-        let mut obj = (osiris_proto::INVALID_ID, 0.0);
-        let ncf = nc as f64;
+        true
+    }
+
+    /// Object of a detection at range bin `rb`, signed Doppler bin `db`, azimuth sine `sy`: among
+    /// the paths within one bin in range and Doppler, the nearest in azimuth (paths within half
+    /// a resolution cell of each other count as equally near), the strongest among those.
+    fn object_of(&self, rb: f64, db: f64, sy: f64) -> u64 {
+        let ncf = self.nc as f64;
         let first = self.path_bins.partition_point(|x| x.0 < rb - 1.0);
+        let half = 0.5 * self.angle_res_sin;
+        // (azimuth distance, −power, id)
+        let mut obj: Option<(f64, f64, u64)> = None;
         for &(pr, pd, i) in self.path_bins[first..]
             .iter()
             .take_while(|x| x.0 <= rb + 1.0)
         {
-            let path = &self.paths[i as usize];
-            if (pr - rb).abs() > 1.0 || path.amplitude_sq_w <= obj.1 {
+            if (pr - rb).abs() > 1.0 {
                 continue;
             }
             let diff = (pd - db).rem_euclid(ncf);
-            if diff.min(ncf - diff) <= 1.0 {
-                obj = (path.object_id, path.amplitude_sq_w);
+            if diff.min(ncf - diff) > 1.0 {
+                continue;
+            }
+            let path = &self.paths[i as usize];
+            let dist = (path.sin_az - sy).abs();
+            let dist = if dist < half { 0.0 } else { dist };
+            let key = (dist, -path.amplitude_sq_w, path.object_id);
+            if obj.is_none_or(|o| (key.0, key.1) < (o.0, o.1)) {
+                obj = Some(key);
             }
         }
-        Some(ChainDetection {
-            range_m: range,
-            range_rate_m_s: v,
-            azimuth_rad: az,
-            elevation_rad: el,
-            power_dbm: 10.0 * (power_w * 1e3).log10(),
-            snr_db,
-            object_id: obj.0,
-        })
+        obj.map_or(osiris_proto::INVALID_ID, |o| o.2)
     }
 }
 
 /// Per-worker buffers of the angle FFT.
 struct AngleBufs {
-    grid: Vec<C32>,
+    /// Zero-padded azimuth line (all rows projected onto the horizontal axis).
+    line: Vec<C32>,
     scratch: Vec<C32>,
-    col: Vec<C32>,
+    /// The cell's virtual-channel vector after TDM compensation.
+    x: Vec<Complex64>,
+    /// Data of one component (x minus the other components).
+    d: Vec<Complex64>,
+    /// Steering vectors of the components, `[component][k]`.
+    steer: Vec<Complex64>,
+    /// Matched-aperture row sums for the elevation estimate.
+    rows: Vec<Complex64>,
+    /// A trial steering vector.
+    tmp: Vec<Complex64>,
+    /// Projected residuals (current, reference) and their Jacobian `[component][k]`.
+    r: Vec<Complex64>,
+    r0: Vec<Complex64>,
+    jac: Vec<Complex64>,
+}
+
+/// Solve the `n × n` real system augmented in column `n` (partial pivoting); false if singular.
+// Small dense linear algebra over component indices: index loops are the clearest form.
+#[allow(clippy::needless_range_loop)]
+fn solve_real(
+    a: &mut [[f64; MAX_ANGLE_PEAKS + 1]; MAX_ANGLE_PEAKS],
+    n: usize,
+    x: &mut [f64; MAX_ANGLE_PEAKS],
+) -> bool {
+    for c in 0..n {
+        let piv = (c..n)
+            .max_by(|&p, &q| a[p][c].abs().total_cmp(&a[q][c].abs()))
+            .unwrap_or(c);
+        a.swap(c, piv);
+        if a[c][c].abs().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+            return false;
+        }
+        for r in c + 1..n {
+            let f = a[r][c] / a[c][c];
+            for cc in c..=n {
+                a[r][cc] -= f * a[c][cc];
+            }
+        }
+    }
+    for c in (0..n).rev() {
+        let mut s = a[c][n];
+        for cc in c + 1..n {
+            s -= a[c][cc] * x[cc];
+        }
+        x[c] = s / a[c][c];
+    }
+    x[..n].iter().all(|v| v.is_finite())
+}
+
+/// One angle component of a range-Doppler cell.
+#[derive(Debug, Clone, Copy, Default)]
+struct AngleComp {
+    /// Direction sines `cos el sin az`, `sin el`.
+    sy: f64,
+    sz: f64,
+    /// Least-squares complex amplitude per channel.
+    amp: Complex64,
+    /// Windowed beamformer output power `|Σ w_k d_k a_k*|²`.
+    beam: f64,
 }
 
 /// Rapp AM/AM compression, then I/Q clipping at the ADC full scale.

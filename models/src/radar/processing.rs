@@ -19,6 +19,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::sensor::ModelError;
 
+/// Upper bound of `ProcessingConfig::max_angle_peaks_per_cell`.
+pub const MAX_ANGLE_PEAKS: usize = 8;
+
 /// FFT window.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -49,6 +52,17 @@ impl Window {
                 }) as f32
             })
             .collect()
+    }
+
+    /// Main-lobe half width (peak to first null) in resolution cells (one cell = one bin of the
+    /// un-padded DFT, `2/N` in sin-space for an `N`-element λ/2 array): 1 for the rectangular
+    /// window, 2 for Hann and Hamming (raised cosines), 3 for Blackman (Harris 1978 §IV, Table 1).
+    pub fn main_lobe_half_width_bins(self) -> f64 {
+        match self {
+            Window::Rectangular => 1.0,
+            Window::Hann | Window::Hamming => 2.0,
+            Window::Blackman => 3.0,
+        }
     }
 
     /// 3 dB main-lobe width in bins (Harris 1978 Table 1).
@@ -128,12 +142,20 @@ pub struct ProcessingConfig {
     pub peak_grouping: bool,
     /// Azimuth angle FFT length (zero-padded; ≥ the horizontal aperture in λ/2).
     pub angle_fft_azimuth: usize,
-    /// Elevation angle FFT length (used when the array has a vertical aperture).
+    /// Elevation search resolution: with three or more occupied rows the elevation is the maximum
+    /// of the row beam over `8 ·` this many points in sin-space (two rows: closed form).
     pub angle_fft_elevation: usize,
     /// Compensate the TDM-MIMO Doppler phase of each Tx slot before the angle FFT.
     pub tdm_doppler_compensation: bool,
     /// Detections below this processed SNR are dropped, dB.
     pub min_snr_db: f64,
+    /// Several targets in one range-Doppler cell: an angle peak is reported when its beam power is
+    /// within this many dB of the cell's strongest angle peak (it must also clear the noise-referred
+    /// threshold and be at least one angular resolution cell from every stronger peak), dB.
+    pub angle_peak_dynamic_range_db: f64,
+    /// At most this many angle peaks (detections) per range-Doppler cell (1 ..= 8; 1: one angle
+    /// per cell).
+    pub max_angle_peaks_per_cell: usize,
     /// At most this many detections per frame (the strongest are kept).
     pub max_detections: usize,
 }
@@ -150,6 +172,8 @@ impl Default for ProcessingConfig {
             angle_fft_elevation: 16,
             tdm_doppler_compensation: true,
             min_snr_db: f64::NEG_INFINITY,
+            angle_peak_dynamic_range_db: 15.0,
+            max_angle_peaks_per_cell: 4,
             max_detections: 1024,
         }
     }
@@ -192,6 +216,26 @@ impl ProcessingConfig {
         }
         if self.min_snr_db.is_nan() {
             return err("min_snr_db", "must be a number".into());
+        }
+        if !(self.angle_peak_dynamic_range_db.is_finite()
+            && self.angle_peak_dynamic_range_db >= 0.0)
+        {
+            return err(
+                "angle_peak_dynamic_range_db",
+                format!(
+                    "must be finite and ≥ 0, got {}",
+                    self.angle_peak_dynamic_range_db
+                ),
+            );
+        }
+        if !(1..=MAX_ANGLE_PEAKS).contains(&self.max_angle_peaks_per_cell) {
+            return err(
+                "max_angle_peaks_per_cell",
+                format!(
+                    "must be in 1..={MAX_ANGLE_PEAKS}, got {}",
+                    self.max_angle_peaks_per_cell
+                ),
+            );
         }
         Ok(())
     }
