@@ -56,9 +56,13 @@ fn rss_bytes() -> usize {
     pages * 4096
 }
 
-fn cycle(view: &[u8], n: usize) {
+fn cycle(view: &[u8], n: usize, mode: &str) {
     let kind = SensorKind::ALL[n % 3];
     let i = Inst::new(sensors::descriptor(kind));
+    assert_eq!(
+        i.set_strings(&[osiris_fmu::variables::vr::string::MODE], &[mode]),
+        OK
+    );
     assert_eq!(i.setup(), OK);
     assert_eq!(i.enter(), OK);
     assert_eq!(
@@ -76,17 +80,21 @@ fn cycle(view: &[u8], n: usize) {
     drop(i); // fmi2FreeInstance, the log collector and the resources dir
 }
 
+/// The tests share the global allocation counter: one at a time.
+static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 #[test]
 fn a_thousand_instantiate_free_cycles_do_not_grow_memory() {
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let view = sample_view_bytes(0.5, 3);
     // Warm up lazily initialised statics (GUIDs, allocator pools, thread-locals).
     for n in 0..30 {
-        cycle(&view, n);
+        cycle(&view, n, "ideal");
     }
     let live_before = LIVE_BYTES.load(Ordering::Relaxed);
     let rss_before = rss_bytes();
     for n in 0..1000 {
-        cycle(&view, n);
+        cycle(&view, n, "ideal");
     }
     let live_after = LIVE_BYTES.load(Ordering::Relaxed);
     let rss_after = rss_bytes();
@@ -104,5 +112,26 @@ fn a_thousand_instantiate_free_cycles_do_not_grow_memory() {
     assert!(
         rss_growth < 4 << 20,
         "RSS grew by {rss_growth} bytes over 1000 cycles"
+    );
+}
+
+#[test]
+fn physical_models_free_what_they_allocate() {
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    // Radar and LiDAR instances (n % 3 = 1, 2) with their physical models: scene, BVH, FFT plans,
+    // IF cube, point buffers, trackers. Fewer cycles than above: a physical step costs more.
+    let view = sample_view_bytes(0.5, 3);
+    for n in [1, 2, 1, 2] {
+        cycle(&view, n, "physical");
+    }
+    let live_before = LIVE_BYTES.load(Ordering::Relaxed);
+    for n in [1, 2, 1, 2, 1, 2, 1, 2] {
+        cycle(&view, n, "physical");
+    }
+    let live_growth = LIVE_BYTES.load(Ordering::Relaxed) - live_before;
+    eprintln!("live heap growth over 8 physical cycles: {live_growth} bytes");
+    assert!(
+        live_growth < 1024,
+        "live heap grew by {live_growth} bytes over 8 physical cycles"
     );
 }

@@ -232,15 +232,36 @@ impl SensorWorld {
         let scene = self.scene.as_ref().expect("scene built above");
         self.warnings.clone_from(&scene.warnings);
         let space_err = |e: crate::space::SpaceError| ModelError::Input(format!("space: {e}"));
-        if !rebuild_space {
-            let space = self.space.as_mut().expect("space exists");
-            if !space.sync_scene(scene).map_err(space_err)? {
-                rebuild_space = true;
+        // The BVH builder asserts on degenerate input that slipped through the checks: contain it,
+        // forget scene and space (rebuilt next step) and skip the frame.
+        let built = std::panic::catch_unwind(std::panic::AssertUnwindSafe(
+            || -> Result<Option<Space>, ModelError> {
+                if !rebuild_space {
+                    let space = self.space.as_mut().expect("space exists");
+                    if space.sync_scene(scene).map_err(space_err)? {
+                        return Ok(None);
+                    }
+                }
+                Ok(Some(
+                    SpaceBuilder::new().build_scene(scene).map_err(space_err)?,
+                ))
+            },
+        ));
+        match built {
+            Ok(Ok(Some(space))) => self.space = Some(space),
+            Ok(Ok(None)) => {}
+            Ok(Err(e)) => return Err(e),
+            Err(_) => {
+                self.scene = None;
+                self.space = None;
+                return Err(ModelError::Input(
+                    "the ray-tracing structure could not be built from this ground truth \
+                     (degenerate geometry); frame skipped"
+                        .into(),
+                ));
             }
         }
-        if rebuild_space {
-            self.space = Some(SpaceBuilder::new().build_scene(scene).map_err(space_err)?);
-        }
+        let scene = self.scene.as_ref().expect("scene built above");
         let space = self.space.as_ref().expect("space built above");
 
         let sensor_pose = Pose::new(scene.to_local(frame.pose.position), frame.pose.rotation);

@@ -604,10 +604,19 @@ impl Space {
                 scene_to_mesh: scene_to_mesh(&d.pose),
             });
         }
-        // Instances of empty meshes get a point box far outside any scene (PLOC needs valid boxes).
-        for b in &mut self.tlas_aabbs {
-            if !b.valid() {
-                *b = Aabb::new(Vec3A::splat(1e30), Vec3A::splat(1e30));
+        // Instances of empty meshes, and instances so far away that f32 cannot hold their box
+        // (beyond ±1e7 m from the scene origin: garbage input), get distinct point boxes far outside
+        // any scene: PLOC needs valid boxes, and identical boxes can trip its nearest-neighbour
+        // search. Rays never reach them.
+        for (i, b) in self.tlas_aabbs.iter_mut().enumerate() {
+            let usable = b.valid()
+                && b.min.is_finite()
+                && b.max.is_finite()
+                && b.min.abs().max_element() < 1e7
+                && b.max.abs().max_element() < 1e7;
+            if !usable {
+                let p = Vec3A::new(1e9 + 4096.0 * i as f32, 1e9, 1e9);
+                *b = Aabb::new(p, p);
             }
         }
         // PLOC (medium search, one instance per leaf): ~0.15 ms for 500 boxes. Reinsertion passes did
