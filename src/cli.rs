@@ -243,12 +243,14 @@ pub fn main_with(cli: Cli) -> Result<()> {
                     crate::bench::bench_fmu(&fmu_dir, iterations)?
                 }
                 BenchWhat::Space => osiris_models::space::bench::bench_space(&threads),
-                BenchWhat::Lidar => {
-                    osiris_models::lidar::bench::bench_lidar(max_threads, frames.unwrap_or(10).max(1))
-                }
-                BenchWhat::Radar => {
-                    osiris_models::radar::bench::bench_radar(max_threads, frames.unwrap_or(40).max(1))
-                }
+                BenchWhat::Lidar => osiris_models::lidar::bench::bench_lidar(
+                    max_threads,
+                    frames.unwrap_or(10).max(1),
+                ),
+                BenchWhat::Radar => osiris_models::radar::bench::bench_radar(
+                    max_threads,
+                    frames.unwrap_or(40).max(1),
+                ),
             };
             outln!("{}", serde_json::to_string(&figures)?);
             Ok(())
@@ -283,7 +285,10 @@ pub fn main_with(cli: Cli) -> Result<()> {
                     let state = if e.default_on { "on " } else { "off" };
                     outln!(
                         "{:<28} {state}  {}\n{:<33}source: {}",
-                        e.name, e.summary, "", e.source
+                        e.name,
+                        e.summary,
+                        "",
+                        e.source
                     );
                 }
             }

@@ -5,7 +5,7 @@
 //!   little endian), with x, y, z (m, sensor frame), intensity, timestamp (ns), channel, echo;
 //! * radar range-Doppler map → `.png` (8-bit grey, range bins bottom-up, Doppler bins left to
 //!   right from the most negative range rate; the map is in the trace only when the radar model
-//!   is configured with `"radar": {"processing": {"emit_range_doppler_map": true}}`), and the
+//!   is configured with `"radar": {"emit_range_doppler_map": true}`), and the
 //!   same values as `.csv`.
 
 use std::io::Write;
@@ -37,8 +37,8 @@ pub fn export_frame(trace: &Path, frame: Option<usize>, out: &Path) -> Result<St
             out.display()
         );
     }
-    let reader = OsiTraceReader::open(trace)
-        .with_context(|| format!("opening {}", trace.display()))?;
+    let reader =
+        OsiTraceReader::open(trace).with_context(|| format!("opening {}", trace.display()))?;
     let mut chosen: Option<(usize, perception::PerceptionData)> = None;
     for (i, msg) in reader.messages::<perception::PerceptionData>().enumerate() {
         let msg = msg.with_context(|| format!("reading {}", trace.display()))?;
@@ -78,10 +78,7 @@ pub fn export_frame(trace: &Path, frame: Option<usize>, out: &Path) -> Result<St
     };
     if wants_cloud {
         let cloud = msg.lidar.as_ref().with_context(|| {
-            format!(
-                "frame {index} of {} is not a LiDAR frame",
-                trace.display()
-            )
+            format!("frame {index} of {} is not a LiDAR frame", trace.display())
         })?;
         let mut w = create()?;
         if ext == "pcd" {
@@ -230,6 +227,11 @@ mod tests {
         write_rd_csv(&map, 3, 4, &mut csv).unwrap();
         let text = String::from_utf8(csv).unwrap();
         assert_eq!(text.lines().count(), 13);
-        assert!(text.lines().nth(1).unwrap().starts_with("0.0000,-0.2000,-70.00"));
+        assert!(
+            text.lines()
+                .nth(1)
+                .unwrap()
+                .starts_with("0.0000,-0.2000,-70.00")
+        );
     }
 }

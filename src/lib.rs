@@ -10,8 +10,8 @@
 
 pub mod bench;
 pub mod cli;
-pub mod export;
 pub mod consistency;
+pub mod export;
 pub mod master;
 pub mod package;
 pub mod scenario;

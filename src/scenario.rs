@@ -556,7 +556,7 @@ impl Default for ScenarioConfig {
         ScenarioConfig {
             name: default_name(),
             duration_s: 2.0,
-            step_s: 0.02,
+            step_s: 0.01,
             start_time_s: 0.0,
             road: RoadConfig::default(),
             environment: EnvironmentConfig::default(),
@@ -1385,7 +1385,7 @@ mod tests {
     fn default_is_valid_and_matches_the_description() {
         let c = ScenarioConfig::default();
         c.validate().unwrap();
-        assert_eq!(c.step_count(), 100);
+        assert_eq!(c.step_count(), 200);
         assert_eq!(c.road.lanes, 3);
         assert_eq!(c.ego.speed_m_s, 25.0);
         assert_eq!(c.sensors.len(), 3);
@@ -1519,7 +1519,7 @@ mod tests {
         let mut c = ScenarioConfig::default();
         c.road_users[4].heading_rad = std::f64::consts::FRAC_PI_2;
         let p0 = position(&c.ground_truth(0).moving_object[5]);
-        let p = position(&c.ground_truth(50).moving_object[5]);
+        let p = position(&c.ground_truth(100).moving_object[5]);
         assert!((p[1] - p0[1] - 1.4 * 1.0).abs() < 1e-9 && (p[0] - p0[0]).abs() < 1e-9);
     }
 
@@ -1531,7 +1531,7 @@ mod tests {
             assert_eq!(sv.version, Some(interface_version()));
             assert_eq!(sv.sensor_id, Some(id(s.sensor_id)));
             assert_eq!(sv.host_vehicle_id, Some(id(1)));
-            assert_eq!(sv.timestamp, Some(timestamp_from_seconds(0.06)));
+            assert_eq!(sv.timestamp, Some(timestamp_from_seconds(0.03)));
             assert_eq!(
                 sv.mounting_position,
                 Some(SensorConfig::default_for(s.kind).mounting.to_osi())
@@ -1682,13 +1682,118 @@ mod tests {
         }
     }
 
+    /// The physical radar and LiDAR on the default scenario: feature detections on the car ahead
+    /// (id 100, 40 m ahead in the ego lane), the LiDAR also on the car behind (102), and the car
+    /// ahead recognised and tracked by the radar within a few cycles.
+    #[test]
+    fn physical_sensors_see_the_default_scenario() {
+        use osiris_models::{ModelMode, StepInput, StepOutput, build_sensor};
+        let c = ScenarioConfig::default();
+        let feature_ids = |sd: &osi3::SensorData| -> Vec<u64> {
+            let fd = sd.feature_data.as_ref().expect("feature data");
+            fd.radar_sensor
+                .iter()
+                .flat_map(|r| r.detection.iter().filter_map(|d| d.object_id?.value))
+                .chain(
+                    fd.lidar_sensor
+                        .iter()
+                        .flat_map(|l| l.detection.iter().filter_map(|d| d.object_id?.value)),
+                )
+                .collect()
+        };
+        // Radar: 6 cycles, every 10th scenario step (0.1 s apart).
+        let mount = c
+            .sensors
+            .iter()
+            .find(|s| s.kind == SensorKind::Radar)
+            .unwrap();
+        let config = SensorConfig::default_for(SensorKind::Radar);
+        assert_eq!(config.mode, ModelMode::Physical);
+        let mut radar = build_sensor(config).unwrap();
+        let mut out = StepOutput::default();
+        let mut tracked = false;
+        for k in 0..6 {
+            let step = (k * 10).min(c.step_count() - 1);
+            let sv = c.sensor_view(step, mount);
+            radar
+                .step(
+                    &StepInput {
+                        view: &sv,
+                        time_s: c.time_s(step),
+                        step_s: 0.1,
+                    },
+                    &mut out,
+                )
+                .unwrap();
+            let ids = feature_ids(&out.sensor_data);
+            assert!(ids.contains(&100), "cycle {k}: radar detections {ids:?}");
+            assert!(
+                !ids.contains(&102),
+                "the car behind is behind the front radar"
+            );
+            tracked |= out.sensor_data.moving_object.iter().any(|o| {
+                o.header
+                    .as_ref()
+                    .is_some_and(|h| h.ground_truth_id.iter().any(|g| g.value == Some(100)))
+            });
+        }
+        assert!(
+            tracked,
+            "the radar never reported the car ahead as an object"
+        );
+        // LiDAR: one VLP-16 revolution (a full VLS-128 frame is slow in the dev profile).
+        let mount = c
+            .sensors
+            .iter()
+            .find(|s| s.kind == SensorKind::Lidar)
+            .unwrap();
+        let mut config = SensorConfig::default_for(SensorKind::Lidar);
+        config.lidar =
+            Some(serde_json::from_str(r#"{"preset": "vlp16"}"#).expect("valid LiDAR config"));
+        let mut lidar = build_sensor(config).unwrap();
+        let sv = c.sensor_view(10, mount);
+        lidar
+            .step(
+                &StepInput {
+                    view: &sv,
+                    time_s: c.time_s(10),
+                    step_s: 0.1,
+                },
+                &mut out,
+            )
+            .unwrap();
+        let ids = feature_ids(&out.sensor_data);
+        let on = |id: u64| ids.iter().filter(|&&i| i == id).count();
+        // VLP-16 (2° between channels): a car at 30–40 m spans 2–3 channels.
+        assert!(
+            on(100) >= 5 && on(102) >= 5,
+            "points on 100: {}, on 102: {}",
+            on(100),
+            on(102)
+        );
+        assert_eq!(on(1), 0, "no points on the host");
+        let cloud = out.perception.lidar.as_ref().expect("point cloud");
+        let detections: usize = out
+            .sensor_data
+            .feature_data
+            .as_ref()
+            .unwrap()
+            .lidar_sensor
+            .iter()
+            .map(|l| l.detection.len())
+            .sum();
+        assert_eq!(cloud.x_m.len(), detections);
+    }
+
     #[test]
     fn ideal_sensors_see_the_default_scenario() {
         use osiris_models::{StepInput, StepOutput, build_sensor};
         let c = ScenarioConfig::default();
         let seen = |kind: SensorKind, step: usize| -> (Vec<u64>, Vec<u64>) {
             let mount = c.sensors.iter().find(|s| s.kind == kind).unwrap();
-            let mut model = build_sensor(SensorConfig::default_for(kind)).unwrap();
+            let mut config = SensorConfig::default_for(kind);
+            config.mode = osiris_models::ModelMode::Ideal;
+            let mut model = build_sensor(config).unwrap();
             let sv = c.sensor_view(step, mount);
             let mut out = StepOutput::default();
             model

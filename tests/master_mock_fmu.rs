@@ -773,7 +773,10 @@ fn multi_rate_steps_each_sensor_at_its_own_cycle() {
     let frames: Vec<usize> = seen.iter().map(|s| s.0).collect();
     assert_eq!(frames, vec![0, 4, 8]);
     for w in seen.windows(2) {
-        assert!((w[0].1 + w[0].2 - w[1].1).abs() < 1e-9, "contiguous: {seen:?}");
+        assert!(
+            (w[0].1 + w[0].2 - w[1].1).abs() < 1e-9,
+            "contiguous: {seen:?}"
+        );
     }
     assert!(seen.iter().all(|s| (s.2 - 0.02).abs() < 1e-12));
 }

@@ -323,7 +323,7 @@ fn structure_follows_fmi2_and_osmp() {
             "parameter",
             "fixed",
             None,
-            Some("ideal"),
+            Some(SensorConfig::default_for(kind).mode.name()),
         );
 
         // ModelStructure: every output listed, the ConfigRequest triple as InitialUnknowns.

@@ -324,10 +324,11 @@ fn several_instances_on_different_threads() {
 }
 
 #[test]
-fn the_default_ideal_model_produces_valid_sensor_data() {
+fn the_default_model_produces_valid_sensor_data() {
     for kind in SensorKind::ALL {
         let i = Inst::new(sensors::descriptor(kind));
         i.init();
+        let mode = osiris_models::SensorConfig::default_for(kind).mode;
         let view = sample_view(0.5, 8);
         let bytes = view.encode_to_vec();
         i.set_input(&bytes);
@@ -338,7 +339,7 @@ fn the_default_ideal_model_produces_valid_sensor_data() {
         assert_eq!(sd.sensor_id, view.sensor_id);
         assert_eq!(sd.mounting_position, view.mounting_position);
         let pd = i.perception().unwrap();
-        assert_eq!(pd.model_mode.as_deref(), Some("ideal"));
+        assert_eq!(pd.model_mode.as_deref(), Some(mode.name()));
         assert_eq!(pd.timestamp, view.timestamp);
     }
 }

@@ -180,20 +180,27 @@ impl SensorConfig {
                 0.033,
                 [1.9, 0.0, 1.3],
             ),
-            // Front long-range radar in the bumper.
+            // Front mid-range radar in the bumper (the default waveform's unambiguous range,
+            // `radar::waveform::WaveformConfig::max_range_m`, is 99.9 m).
             SensorKind::Radar => (
-                200.0,
+                100.0,
                 90f64.to_radians(),
                 10f64.to_radians(),
                 0.05,
                 [3.7, 0.0, 0.5],
             ),
-            // Roof spinning LiDAR.
-            SensorKind::Lidar => (120.0, 2.0 * PI, 30f64.to_radians(), 0.1, [1.4, 0.0, 1.9]),
+            // Roof spinning LiDAR (VLS-128: elevations −25°…+15°, so ±25° keeps every channel).
+            SensorKind::Lidar => (200.0, 2.0 * PI, 50f64.to_radians(), 0.1, [1.4, 0.0, 1.9]),
+        };
+        // The physical model where one exists; the camera runs the ideal model until its physical
+        // model lands.
+        let mode = match kind {
+            SensorKind::Camera => ModelMode::Ideal,
+            SensorKind::Radar | SensorKind::Lidar => ModelMode::Physical,
         };
         SensorConfig {
             kind,
-            mode: ModelMode::Ideal,
+            mode,
             range_m,
             fov_horizontal_rad: fov_h,
             fov_vertical_rad: fov_v,

@@ -836,7 +836,7 @@ fn view_configuration_request_and_grant() {
     let mut s = IdealSensor::new(SensorConfig::default_for(SensorKind::Radar));
     let req = s.view_configuration_request();
     assert_eq!(req.version, Some(osiris_proto::interface_version()));
-    assert_eq!(req.range, Some(200.0));
+    assert_eq!(req.range, Some(100.0));
     assert_eq!(req.field_of_view_horizontal, Some(90f64.to_radians()));
     assert_eq!(req.update_cycle_time, Some(timestamp_from_seconds(0.05)));
     assert_eq!(req.radar_sensor_view_configuration.len(), 1);
@@ -860,12 +860,13 @@ fn view_configuration_request_and_grant() {
             .unwrap()
             .is_empty()
     );
-    // A smaller FoV and range are adopted with notes; a larger vertical FoV is ignored.
+    // A smaller FoV and range (75 m of the default 100 m) are adopted with notes; a larger vertical
+    // FoV is ignored.
     let granted = osi3::SensorViewConfiguration {
         sensor_id: Some(id(77)),
         field_of_view_horizontal: Some(1.0),
         field_of_view_vertical: Some(1.0),
-        range: Some(150.0),
+        range: Some(75.0),
         radar_sensor_view_configuration: vec![osi3::RadarSensorViewConfiguration {
             field_of_view_horizontal: Some(0.8),
             ..Default::default()
@@ -876,7 +877,7 @@ fn view_configuration_request_and_grant() {
     assert_eq!(notes.len(), 2, "{notes:?}");
     assert_eq!(s.config().fov_horizontal_rad, 0.8);
     assert_eq!(s.config().fov_vertical_rad, 10f64.to_radians());
-    assert_eq!(s.config().range_m, 150.0);
+    assert_eq!(s.config().range_m, 75.0);
     let req = s.view_configuration_request();
     assert_eq!(req.sensor_id, Some(id(77)));
     assert_eq!(

@@ -11,7 +11,10 @@ pub static DESCRIPTOR: FmuDescriptor = FmuDescriptor::new(
     "osiris lidar",
     "osiris_lidar",
     "osiris LiDAR sensor model (OSI 3.8.0 SensorView in, SensorData out, OSMP 1.6.0; raw perception \
-     output in PerceptionDataOut). This version runs the ideal object-level model only: ground-truth \
-     objects inside the field of view and range, occlusion by other objects, in the sensor frame. \
-     The physics-based LiDAR model has not landed yet; mode=physical fails at initialization.",
+     output in PerceptionDataOut). mode=physical (default): pulsed time-of-flight LiDAR (Velodyne \
+     VLS-128 / VLP-16 presets or a configured pattern): per-firing ray tracing with beam sub-rays, \
+     the LiDAR equation with material BRDFs, overlap, fog/rain extinction and solar background, an \
+     APD receiver with noise, multi-echo detection, range walk and saturation, then ground removal, \
+     clustering, boxes and tracking into detected objects. mode=ideal: the ideal object-level \
+     reference model.",
 );

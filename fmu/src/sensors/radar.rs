@@ -11,7 +11,9 @@ pub static DESCRIPTOR: FmuDescriptor = FmuDescriptor::new(
     "osiris radar",
     "osiris_radar",
     "osiris radar sensor model (OSI 3.8.0 SensorView in, SensorData out, OSMP 1.6.0; raw perception \
-     output in PerceptionDataOut). This version runs the ideal object-level model only: ground-truth \
-     objects inside the field of view and range, occlusion by other objects, in the sensor frame. \
-     The physics-based radar model has not landed yet; mode=physical fails at initialization.",
+     output in PerceptionDataOut). mode=physical (default): 76-81 GHz FMCW radar: ray-traced \
+     propagation (shooting and bouncing rays with physical optics, Fresnel reflection, ground \
+     multipath, rain and gas attenuation, antenna patterns), IF-cube synthesis with thermal and \
+     phase noise, range/Doppler FFTs, CFAR, angle estimation, then clustering and tracking into \
+     detected objects. mode=ideal: the ideal object-level reference model.",
 );
