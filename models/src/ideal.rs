@@ -727,13 +727,6 @@ fn dimension_of(b: &Body) -> osi3::Dimension3d {
     }
 }
 
-fn timestamp_ns(ts: &osi3::Timestamp) -> i64 {
-    ts.seconds
-        .unwrap_or(0)
-        .saturating_mul(1_000_000_000)
-        .saturating_add(i64::from(ts.nanos.unwrap_or(0)))
-}
-
 /// Reusable parts of the previous output, taken before the output is cleared.
 #[derive(Default)]
 struct Recycled {
@@ -950,35 +943,14 @@ impl SensorModel for IdealSensor {
         out.perception.clear();
 
         let view = input.view;
-        let gt = view
-            .global_ground_truth
-            .as_ref()
-            .ok_or_else(|| ModelError::Input("the SensorView has no global_ground_truth".into()))?;
-        let host_id = view
-            .host_vehicle_id
-            .and_then(|i| i.value)
-            .or(gt.host_vehicle_id.and_then(|i| i.value));
-        let host = match host_id {
-            Some(hid) => Some(
-                gt.moving_object
-                    .iter()
-                    .find(|o| o.id.and_then(|i| i.value) == Some(hid))
-                    .ok_or_else(|| {
-                        ModelError::Input(format!(
-                            "host vehicle id {hid} is not among the ground truth's moving objects"
-                        ))
-                    })?,
-            ),
-            None => None,
-        };
-        let mounting = view
-            .mounting_position
-            .unwrap_or_else(|| self.config.mounting.to_osi());
-        let frame = SensorFrame::new(host, &mounting);
-        let measurement_time = view
-            .timestamp
-            .or(gt.timestamp)
-            .unwrap_or_else(|| timestamp_from_seconds(input.time_s));
+        let crate::world::ViewFrame {
+            gt,
+            host_id,
+            host,
+            mounting,
+            frame,
+            timestamp: measurement_time,
+        } = crate::world::ViewFrame::resolve(view, &self.config.mounting, input.time_s)?;
         let now_s = osiris_proto::timestamp_to_seconds(&measurement_time);
         let sensor_id = self.sensor_id_of(view);
         let cycle = self.cycle;
@@ -1177,7 +1149,7 @@ impl SensorModel for IdealSensor {
             SensorKind::Lidar => {
                 let mut dets = rec.lidar;
                 let mut cloud = rec.cloud.unwrap_or_default();
-                let t_ns = timestamp_ns(&measurement_time);
+                let t_ns = osiris_proto::timestamp_to_nanos(&measurement_time);
                 for s in &scratch.seen {
                     let b = &scratch.bodies[s.body];
                     let gid = b.id.unwrap_or(osiris_proto::INVALID_ID);

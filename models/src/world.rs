@@ -124,6 +124,68 @@ impl WorldFrame<'_> {
     }
 }
 
+/// What every model (ideal or physical) reads from a SensorView before anything else: the ground
+/// truth, the host vehicle (`SensorView.host_vehicle_id`, else `GroundTruth.host_vehicle_id`; an id
+/// missing from the ground truth is an input error), the mounting (`SensorView.mounting_position`,
+/// else the configured one), the sensor frame, and the measurement time (SensorView timestamp, else
+/// the ground truth's, else the communication point).
+pub struct ViewFrame<'v> {
+    pub gt: &'v osi3::GroundTruth,
+    pub host_id: Option<u64>,
+    pub host: Option<&'v osi3::MovingObject>,
+    pub mounting: osi3::MountingPosition,
+    pub frame: SensorFrame,
+    pub timestamp: osi3::Timestamp,
+}
+
+impl<'v> ViewFrame<'v> {
+    /// Resolve `view`; `fallback_mounting` is used when the view carries no mounting position and
+    /// `time_s` (the communication point) when it carries no timestamp.
+    pub fn resolve(
+        view: &'v osi3::SensorView,
+        fallback_mounting: &crate::sensor::Mounting,
+        time_s: f64,
+    ) -> Result<ViewFrame<'v>, ModelError> {
+        let gt = view
+            .global_ground_truth
+            .as_ref()
+            .ok_or_else(|| ModelError::Input("the SensorView has no global_ground_truth".into()))?;
+        let host_id = view
+            .host_vehicle_id
+            .and_then(|i| i.value)
+            .or(gt.host_vehicle_id.and_then(|i| i.value));
+        let host = match host_id {
+            Some(hid) => Some(
+                gt.moving_object
+                    .iter()
+                    .find(|o| o.id.and_then(|i| i.value) == Some(hid))
+                    .ok_or_else(|| {
+                        ModelError::Input(format!(
+                            "host vehicle id {hid} is not among the ground truth's moving objects"
+                        ))
+                    })?,
+            ),
+            None => None,
+        };
+        let mounting = view
+            .mounting_position
+            .unwrap_or_else(|| fallback_mounting.to_osi());
+        let frame = SensorFrame::new(host, &mounting);
+        let timestamp = view
+            .timestamp
+            .or(gt.timestamp)
+            .unwrap_or_else(|| timestamp_from_seconds(time_s));
+        Ok(ViewFrame {
+            gt,
+            host_id,
+            host,
+            mounting,
+            frame,
+            timestamp,
+        })
+    }
+}
+
 /// Scene and space kept across the steps of one physical model instance.
 pub struct SensorWorld {
     materials: MaterialDb,
@@ -175,35 +237,14 @@ impl SensorWorld {
         time_s: f64,
         sensor_id: Option<u64>,
     ) -> Result<WorldFrame<'w>, ModelError> {
-        let gt = view
-            .global_ground_truth
-            .as_ref()
-            .ok_or_else(|| ModelError::Input("the SensorView has no global_ground_truth".into()))?;
-        let host_id = view
-            .host_vehicle_id
-            .and_then(|i| i.value)
-            .or(gt.host_vehicle_id.and_then(|i| i.value));
-        let host = match host_id {
-            Some(hid) => Some(
-                gt.moving_object
-                    .iter()
-                    .find(|o| o.id.and_then(|i| i.value) == Some(hid))
-                    .ok_or_else(|| {
-                        ModelError::Input(format!(
-                            "host vehicle id {hid} is not among the ground truth's moving objects"
-                        ))
-                    })?,
-            ),
-            None => None,
-        };
-        let mounting = view
-            .mounting_position
-            .unwrap_or_else(|| config.mounting.to_osi());
-        let frame = SensorFrame::new(host, &mounting);
-        let timestamp = view
-            .timestamp
-            .or(gt.timestamp)
-            .unwrap_or_else(|| timestamp_from_seconds(time_s));
+        let ViewFrame {
+            gt,
+            host_id,
+            host,
+            mounting,
+            frame,
+            timestamp,
+        } = ViewFrame::resolve(view, &config.mounting, time_s)?;
 
         // Scene: build once, update afterwards.
         let scene_err = |e: crate::environment::scene::SceneError| {

@@ -72,6 +72,15 @@ pub fn timestamp_to_seconds(ts: &osi3::Timestamp) -> f64 {
     ts.seconds.unwrap_or(0) as f64 + f64::from(ts.nanos.unwrap_or(0)) * 1e-9
 }
 
+/// An OSI `Timestamp` in integer nanoseconds (absent fields count as 0; saturates instead of
+/// overflowing).
+pub fn timestamp_to_nanos(ts: &osi3::Timestamp) -> i64 {
+    ts.seconds
+        .unwrap_or(0)
+        .saturating_mul(1_000_000_000)
+        .saturating_add(i64::from(ts.nanos.unwrap_or(0)))
+}
+
 /// An OSI `Identifier` with the given value.
 pub fn id(value: u64) -> osi3::Identifier {
     osi3::Identifier { value: Some(value) }

@@ -202,6 +202,26 @@ fn write_all<M: prost::Message>(path: &Path, msgs: &[M]) -> Result<()> {
     Ok(())
 }
 
+/// The three traces of a campaign in `dir` (SensorView, measured and "model" SensorData), and the
+/// paths of all its files.
+fn write_traces(
+    dir: &Path,
+    views: &[osi3::SensorView],
+    meas: &[osi3::SensorData],
+    sim: &[osi3::SensorData],
+) -> Result<CampaignFiles> {
+    let files = CampaignFiles {
+        toml: dir.join("consistency.toml"),
+        sensor_view: dir.join("sv.osi"),
+        sensor_data: dir.join("sd_measured.osi"),
+        simulated: dir.join("sd_model.osi"),
+    };
+    write_all(&files.sensor_view, views)?;
+    write_all(&files.sensor_data, meas)?;
+    write_all(&files.simulated, sim)?;
+    Ok(files)
+}
+
 /// ITU-R P.838-3 specific attenuation at 77 GHz, horizontal polarisation, dB/km (k = 1.132,
 /// α = 0.718; validation.md §9c).
 fn itu_rain_db_per_km(rain_mm_h: f64) -> f64 {
@@ -393,15 +413,7 @@ pub fn write_radar(dir: &Path, spec: &RadarTruth) -> Result<CampaignFiles> {
             sim.push(sd(sdets));
         }
     }
-    let files = CampaignFiles {
-        toml: dir.join("consistency.toml"),
-        sensor_view: dir.join("sv.osi"),
-        sensor_data: dir.join("sd_measured.osi"),
-        simulated: dir.join("sd_model.osi"),
-    };
-    write_all(&files.sensor_view, &views)?;
-    write_all(&files.sensor_data, &meas)?;
-    write_all(&files.simulated, &sim)?;
+    let files = write_traces(dir, &views, &meas, &sim)?;
     let mut toml = format!(
         r#"schema = "osiris.consistency/1"
 
@@ -797,15 +809,7 @@ pub fn write_lidar(dir: &Path, spec: &LidarTruth) -> Result<CampaignFiles> {
             sim.push(sd(sp));
         }
     }
-    let files = CampaignFiles {
-        toml: dir.join("consistency.toml"),
-        sensor_view: dir.join("sv.osi"),
-        sensor_data: dir.join("sd_measured.osi"),
-        simulated: dir.join("sd_model.osi"),
-    };
-    write_all(&files.sensor_view, &views)?;
-    write_all(&files.sensor_data, &meas)?;
-    write_all(&files.simulated, &sim)?;
+    let files = write_traces(dir, &views, &meas, &sim)?;
     let mut toml = format!(
         r#"schema = "osiris.consistency/1"
 

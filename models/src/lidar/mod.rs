@@ -696,13 +696,6 @@ impl LidarSensor {
     }
 }
 
-fn timestamp_ns(ts: &osi3::Timestamp) -> i64 {
-    ts.seconds
-        .unwrap_or(0)
-        .saturating_mul(1_000_000_000)
-        .saturating_add(i64::from(ts.nanos.unwrap_or(0)))
-}
-
 impl SensorModel for LidarSensor {
     fn kind(&self) -> SensorKind {
         SensorKind::Lidar
@@ -801,7 +794,7 @@ impl SensorModel for LidarSensor {
         };
         let pulses = self.engine.firings().len() as u64;
         let chunks = self.engine.run(&fi);
-        let t0 = timestamp_ns(&frame.timestamp);
+        let t0 = osiris_proto::timestamp_to_nanos(&frame.timestamp);
         self.points.clear();
         let u8_scale = self.lidar.detector.intensity_scale == detection::IntensityScale::U8;
         // OSI intensity is in %: the u8 byte's diffuse part 0–100 is already %; its retro-reflector
