@@ -103,6 +103,7 @@ pub fn catalogue() -> Vec<EffectInfo> {
         crate::space::EFFECTS,
         &crate::lidar::effects(),
         &crate::radar::effects(),
+        &crate::camera::effects(),
     ]
     .concat();
     all.sort_by_key(|e| e.name);

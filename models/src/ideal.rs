@@ -1245,7 +1245,7 @@ impl SensorModel for IdealSensor {
                     detection: dets,
                     point: points,
                 });
-                p.camera = Some(perception::CameraPerception { image: Vec::new() });
+                p.camera = Some(perception::CameraPerception::default());
             }
         }
         out.sensor_data.feature_data = Some(fd);

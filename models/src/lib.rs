@@ -11,6 +11,7 @@
 //! * [`lidar`], [`radar`]: the physical sensor models.
 //! * [`recognition`]: detected objects from raw perception output, with tracking.
 
+pub mod camera;
 pub mod effects;
 pub mod environment;
 pub mod frames;

@@ -3,6 +3,7 @@
 use osiris_proto::{osi3, perception};
 use serde::{Deserialize, Serialize};
 
+use crate::camera::CameraConfig;
 use crate::effects::EffectSwitches;
 use crate::environment::weather::Weather;
 use crate::lidar::LidarConfig;
@@ -161,6 +162,9 @@ pub struct SensorConfig {
     /// Physical radar parameters (`kind: radar`); absent: the defaults.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub radar: Option<RadarConfig>,
+    /// Physical camera parameters (`kind: camera`); absent: the defaults.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera: Option<CameraConfig>,
 }
 
 fn default_min_visible_fraction() -> f64 {
@@ -215,6 +219,7 @@ impl SensorConfig {
             seed: None,
             lidar: None,
             radar: None,
+            camera: None,
         }
     }
 
@@ -280,6 +285,15 @@ impl SensorConfig {
                 self.kind.name()
             )));
         }
+        if self.camera.is_some() && self.kind != SensorKind::Camera {
+            return Err(ModelError::Config(format!(
+                "`camera` parameters given for a {} sensor",
+                self.kind.name()
+            )));
+        }
+        if let Some(c) = &self.camera {
+            c.resolve()?;
+        }
         let known = crate::effects::catalogue();
         crate::effects::Effects::with_switches(&known, &self.effects)
             .map_err(|e| ModelError::Config(format!("`effects`: {e}")))?;
@@ -344,9 +358,7 @@ pub fn build_sensor(config: SensorConfig) -> Result<Box<dyn SensorModel>, ModelE
         ModelMode::Physical => match config.kind {
             SensorKind::Lidar => crate::lidar::build(config),
             SensorKind::Radar => crate::radar::build(config),
-            SensorKind::Camera => Err(ModelError::NotAvailable(
-                "the physical camera model has not landed yet; use mode `ideal`".into(),
-            )),
+            SensorKind::Camera => crate::camera::build(config),
         },
     }
 }

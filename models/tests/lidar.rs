@@ -140,6 +140,7 @@ fn config(lidar: LidarConfig, effects: EffectSwitches) -> SensorConfig {
         seed: Some(7),
         lidar: Some(lidar),
         radar: None,
+        camera: None,
     }
 }
 

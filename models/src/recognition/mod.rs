@@ -7,6 +7,7 @@
 //! * [`tracking`]: Kalman-filter multi-object tracker shared by both.
 //! * [`common`]: object classes and the OSI output of a track.
 
+pub mod camera;
 pub mod common;
 pub mod lidar;
 pub mod radar;

@@ -1,0 +1,1 @@
+//! `osiris bench camera`: frames per second of the physical camera on a reference scene.

@@ -1,0 +1,626 @@
+//! The physical camera as a [`SensorModel`]: configuration, one step of the chain, OSI output.
+
+use glam::DVec3;
+use osiris_proto::{interface_version, osi3, perception};
+use prost::Message as _;
+use serde::{Deserialize, Serialize};
+
+use super::hdr::{HdrConfig, HdrPipeline};
+use super::isp::{Isp, IspConfig};
+use super::lens::{Lens, LensConfig};
+use super::pixel::{PixelConfig, PixelModel};
+use super::render::{RenderConfig, RenderInput, RenderOutput, Renderer};
+use super::spectral::SpectralConfig;
+use super::{Cfa, RawImage, RgbImage, ShutterTiming, SpectralResponse};
+use crate::effects::Effects;
+use crate::recognition::camera::{
+    CameraRecognition, CameraRecognitionConfig, CameraRecognitionInput,
+};
+use crate::sensor::{
+    ModelError, ModelMode, SensorConfig, SensorKind, SensorModel, StepInput, StepOutput,
+};
+use crate::space::Ray;
+use crate::world::SensorWorld;
+
+/// Sensor presets (array size and pixel pitch; the pixel and HDR defaults follow the preset).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CameraPreset {
+    /// Sony ISX019-class: 1280 × 960, 2.9 µm pixels, DOL (multi-exposure) HDR (DIVP reference
+    /// sensor, FY2019 report).
+    #[default]
+    Isx019,
+    /// Sony IMX490-class: 2880 × 1860, 3.0 µm pixels, split-pixel HDR (LUCID tech brief;
+    /// ISETCam `sensorCreateIMX490.m`).
+    Imx490,
+}
+
+impl CameraPreset {
+    /// (width px, height px, pixel pitch m).
+    pub fn geometry(self) -> (usize, usize, f64) {
+        match self {
+            CameraPreset::Isx019 => (1280, 960, 2.9e-6),
+            CameraPreset::Imx490 => (2880, 1860, 3.0e-6),
+        }
+    }
+}
+
+/// Which images a step writes into `PerceptionData.camera.image`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct EmitConfig {
+    /// One RAW mosaic per capture of the HDR sequence (u16).
+    pub raw_exposures: bool,
+    /// The HDR-merged linear RAW (u32, 20–24 bit).
+    pub raw_hdr_linear: bool,
+    /// The PWL-companded RAW (u16, 12–16 bit).
+    pub raw_companded: bool,
+    /// The ISP's 8-bit sRGB image.
+    pub isp: bool,
+}
+
+impl Default for EmitConfig {
+    fn default() -> Self {
+        EmitConfig {
+            raw_exposures: false,
+            raw_hdr_linear: false,
+            raw_companded: true,
+            isp: true,
+        }
+    }
+}
+
+/// Camera-specific configuration (`"camera"` key of the sensor configuration JSON).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraConfig {
+    #[serde(default)]
+    pub preset: CameraPreset,
+    /// Image width, px (absent: the preset's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub width_px: Option<usize>,
+    /// Image height, px (absent: the preset's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub height_px: Option<usize>,
+    /// Pixel pitch, m (absent: the preset's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pixel_pitch_m: Option<f64>,
+    /// Fixed exposure time of the longest capture, s; absent: auto exposure.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub exposure_s: Option<f64>,
+    /// Die temperature for the dark signal, °C (absent: 40 °C, a guessed in-vehicle value).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temperature_c: Option<f64>,
+    #[serde(default)]
+    pub spectral: SpectralConfig,
+    #[serde(default)]
+    pub lens: LensConfig,
+    /// Pixel parameters (absent: the preset's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pixel: Option<PixelConfig>,
+    /// HDR parameters (absent: the preset's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hdr: Option<HdrConfig>,
+    #[serde(default)]
+    pub isp: IspConfig,
+    #[serde(default)]
+    pub render: RenderConfig,
+    #[serde(default)]
+    pub recognition: CameraRecognitionConfig,
+    #[serde(default)]
+    pub emit: EmitConfig,
+}
+
+/// Values in effect after the preset defaults.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Resolved {
+    pub width: usize,
+    pub height: usize,
+    pub pixel_pitch_m: f64,
+    pub temperature_c: f64,
+    pub pixel: PixelConfig,
+    pub hdr: HdrConfig,
+}
+
+impl CameraConfig {
+    /// Apply the preset defaults and check every value; errors name the key.
+    pub fn resolve(&self) -> Result<Resolved, ModelError> {
+        let (w, h, pitch) = self.preset.geometry();
+        let width = self.width_px.unwrap_or(w);
+        let height = self.height_px.unwrap_or(h);
+        for (key, v) in [("width_px", width), ("height_px", height)] {
+            if !(2..=16_384).contains(&v) || v % 2 != 0 {
+                return Err(ModelError::Config(format!(
+                    "`camera.{key}` must be an even number in 2..=16384 (the CFA repeats every 2 \
+                     pixels), got {v}"
+                )));
+            }
+        }
+        let pixel_pitch_m = self.pixel_pitch_m.unwrap_or(pitch);
+        if !(pixel_pitch_m.is_finite() && pixel_pitch_m > 0.0 && pixel_pitch_m < 1e-3) {
+            return Err(ModelError::Config(format!(
+                "`camera.pixel_pitch_m` must be in (0, 1e-3) m, got {pixel_pitch_m}"
+            )));
+        }
+        if let Some(t) = self.exposure_s
+            && !(t.is_finite() && t > 0.0 && t <= 1.0)
+        {
+            return Err(ModelError::Config(format!(
+                "`camera.exposure_s` must be in (0, 1] s, got {t}"
+            )));
+        }
+        let temperature_c = self.temperature_c.unwrap_or(40.0);
+        if !(temperature_c.is_finite() && (-60.0..=150.0).contains(&temperature_c)) {
+            return Err(ModelError::Config(format!(
+                "`camera.temperature_c` must be in −60…150 °C, got {temperature_c}"
+            )));
+        }
+        let pixel = match &self.pixel {
+            Some(p) => p.clone(),
+            None => PixelConfig::for_preset(self.preset),
+        };
+        let hdr = match &self.hdr {
+            Some(p) => p.clone(),
+            None => HdrConfig::for_preset(self.preset),
+        };
+        self.spectral.validate()?;
+        self.lens.validate()?;
+        pixel.validate()?;
+        hdr.validate()?;
+        self.isp.validate()?;
+        self.render.validate()?;
+        self.recognition.validate()?;
+        Ok(Resolved {
+            width,
+            height,
+            pixel_pitch_m,
+            temperature_c,
+            pixel,
+            hdr,
+        })
+    }
+}
+
+/// Build the physical camera model.
+pub fn build(config: SensorConfig) -> Result<Box<dyn SensorModel>, ModelError> {
+    Ok(Box::new(CameraSensor::new(config)?))
+}
+
+/// The planned chain of one camera (everything that does not change between frames).
+pub struct CameraChain {
+    pub resolved: Resolved,
+    pub renderer: Renderer,
+    pub response: SpectralResponse,
+    pub lens: Lens,
+    pub pixel: PixelModel,
+    pub hdr: HdrPipeline,
+    pub isp: Isp,
+    pub cfa: Cfa,
+}
+
+impl CameraChain {
+    /// Plan the chain for a sensor configuration (`fov_horizontal_rad` gives the focal length when
+    /// the lens config has none).
+    pub fn plan(
+        config: &SensorConfig,
+        camera: &CameraConfig,
+        effects: &Effects,
+    ) -> Result<CameraChain, ModelError> {
+        let resolved = camera.resolve()?;
+        let renderer = Renderer::new(&camera.render, effects)?;
+        let response = camera.spectral.response(renderer.bands())?;
+        let lens = Lens::new(
+            &camera.lens,
+            resolved.width,
+            resolved.height,
+            resolved.pixel_pitch_m,
+            config.fov_horizontal_rad,
+            effects,
+        )?;
+        let seed = config.seed.unwrap_or(0);
+        let pixel = PixelModel::new(
+            &resolved.pixel,
+            resolved.width,
+            resolved.height,
+            effects,
+            seed,
+        )?;
+        let hdr = HdrPipeline::new(&resolved.hdr, effects)?;
+        let cfa = pixel.cfa();
+        let isp = Isp::new(&camera.isp, cfa, &response)?;
+        Ok(CameraChain {
+            resolved,
+            renderer,
+            response,
+            lens,
+            pixel,
+            hdr,
+            isp,
+            cfa,
+        })
+    }
+}
+
+/// Buffers reused across steps.
+#[derive(Default)]
+struct Buffers {
+    render: RenderOutput,
+    captures: Vec<RawImage>,
+    linear: RawImage,
+    companded: RawImage,
+    rgb: RgbImage,
+    luminance: Vec<f32>,
+    divp: Vec<perception::CameraObject>,
+}
+
+/// Wall-clock cost of the stages of the last step, s.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct StageTimes {
+    pub render_s: f64,
+    pub lens_s: f64,
+    pub pixel_s: f64,
+    pub isp_s: f64,
+    pub recognition_s: f64,
+}
+
+/// The physical camera model.
+pub struct CameraSensor {
+    config: SensorConfig,
+    camera: CameraConfig,
+    effects: Effects,
+    ideal: crate::ideal::IdealSensor,
+    world: SensorWorld,
+    chain: CameraChain,
+    recognition: CameraRecognition,
+    sensor_id: Option<u64>,
+    cycle: u64,
+    /// Exposure of the previous frame (auto exposure), s.
+    last_exposure_s: Option<f64>,
+    buffers: Buffers,
+    /// Cost split of the last step.
+    pub times: StageTimes,
+}
+
+impl CameraSensor {
+    /// Build from a configuration (`kind: camera`); errors name the bad key.
+    pub fn new(config: SensorConfig) -> Result<CameraSensor, ModelError> {
+        config.validate()?;
+        if config.kind != SensorKind::Camera {
+            return Err(ModelError::Config(format!(
+                "`kind` must be `camera` for the camera model, got `{}`",
+                config.kind.name()
+            )));
+        }
+        let camera = config.camera.clone().unwrap_or_default();
+        let effects = Effects::with_switches(&crate::effects::catalogue(), &config.effects)
+            .map_err(|e| ModelError::Config(format!("`effects`: {e}")))?;
+        let chain = CameraChain::plan(&config, &camera, &effects)?;
+        let recognition = CameraRecognition::new(&camera.recognition)?;
+        Ok(CameraSensor {
+            ideal: crate::ideal::IdealSensor::new(config.clone()),
+            config,
+            camera,
+            effects,
+            world: SensorWorld::new(),
+            chain,
+            recognition,
+            sensor_id: None,
+            cycle: 0,
+            last_exposure_s: None,
+            buffers: Buffers::default(),
+            times: StageTimes::default(),
+        })
+    }
+
+    /// The planned chain (lens, pixel, HDR, ISP).
+    pub fn chain(&self) -> &CameraChain {
+        &self.chain
+    }
+
+    /// The effects in force.
+    pub fn effects(&self) -> &Effects {
+        &self.effects
+    }
+}
+
+fn image_u16(
+    raw: &RawImage,
+    kind: perception::camera_image::Kind,
+    cfa: perception::camera_image::ColorFilterArray,
+) -> perception::CameraImage {
+    use perception::camera_image::SampleFormat;
+    let mut data = Vec::with_capacity(raw.data.len() * 2);
+    let max = raw.max_dn().min(u32::from(u16::MAX));
+    for &v in &raw.data {
+        data.extend_from_slice(&(v.min(max) as u16).to_le_bytes());
+    }
+    perception::CameraImage {
+        kind: Some(kind as i32),
+        exposure_index: Some(raw.exposure_index),
+        width_px: Some(raw.width as u32),
+        height_px: Some(raw.height as u32),
+        cfa: Some(cfa as i32),
+        sample_format: Some(SampleFormat::U16Le as i32),
+        channels: Some(1),
+        bit_depth: Some(raw.bit_depth.min(16)),
+        data: Some(data),
+        exposure_time_s: Some(raw.exposure_time_s),
+        analog_gain: Some(raw.analog_gain),
+        conversion_gain_dn_per_e: Some(raw.conversion_gain_dn_per_e),
+        black_level_dn: Some(raw.black_level_dn),
+        row_time_s: Some(raw.row_time_s),
+        ..Default::default()
+    }
+}
+
+fn image_u32(
+    raw: &RawImage,
+    cfa: perception::camera_image::ColorFilterArray,
+) -> perception::CameraImage {
+    use perception::camera_image::{Kind, SampleFormat};
+    let mut data = Vec::with_capacity(raw.data.len() * 4);
+    for &v in &raw.data {
+        data.extend_from_slice(&v.to_le_bytes());
+    }
+    perception::CameraImage {
+        kind: Some(Kind::RawHdrLinear as i32),
+        width_px: Some(raw.width as u32),
+        height_px: Some(raw.height as u32),
+        cfa: Some(cfa as i32),
+        sample_format: Some(SampleFormat::U32Le as i32),
+        channels: Some(1),
+        bit_depth: Some(raw.bit_depth),
+        data: Some(data),
+        exposure_time_s: Some(raw.exposure_time_s),
+        analog_gain: Some(raw.analog_gain),
+        conversion_gain_dn_per_e: Some(raw.conversion_gain_dn_per_e),
+        black_level_dn: Some(raw.black_level_dn),
+        row_time_s: Some(raw.row_time_s),
+        ..Default::default()
+    }
+}
+
+impl SensorModel for CameraSensor {
+    fn kind(&self) -> SensorKind {
+        SensorKind::Camera
+    }
+
+    fn mode(&self) -> ModelMode {
+        ModelMode::Physical
+    }
+
+    fn config(&self) -> &SensorConfig {
+        &self.config
+    }
+
+    fn view_configuration_request(&self) -> osi3::SensorViewConfiguration {
+        self.ideal.view_configuration_request()
+    }
+
+    fn apply_view_configuration(
+        &mut self,
+        granted: &osi3::SensorViewConfiguration,
+    ) -> Result<Vec<String>, ModelError> {
+        let notes = self.ideal.apply_view_configuration(granted)?;
+        if let Some(v) = granted.sensor_id.and_then(|i| i.value) {
+            self.sensor_id = Some(v);
+        }
+        let c = self.ideal.config();
+        if c.fov_horizontal_rad != self.config.fov_horizontal_rad
+            || c.fov_vertical_rad != self.config.fov_vertical_rad
+            || c.range_m != self.config.range_m
+        {
+            self.config = c.clone();
+            self.chain = CameraChain::plan(&self.config, &self.camera, &self.effects)?;
+        }
+        Ok(notes)
+    }
+
+    fn step(&mut self, input: &StepInput<'_>, out: &mut StepOutput) -> Result<(), ModelError> {
+        use perception::camera_image::{ColorFilterArray, Kind};
+        let mut moving = std::mem::take(&mut out.sensor_data.moving_object);
+        let mut camera_out = out.perception.camera.take().unwrap_or_default();
+        out.sensor_data.clear();
+        out.perception.clear();
+        moving.clear();
+        camera_out.image.clear();
+        camera_out.object.clear();
+        camera_out.band_centre_nm.clear();
+
+        let Some(gt) = input.view.global_ground_truth.as_ref() else {
+            return Err(ModelError::Input(
+                "SensorView without global_ground_truth".into(),
+            ));
+        };
+        let cycle = self.cycle;
+        self.cycle += 1;
+        let seed = self.config.seed.unwrap_or(0);
+        let frame = self
+            .world
+            .update(input.view, &self.config, input.time_s, self.sensor_id)?;
+        let chain = &mut self.chain;
+        let b = &mut self.buffers;
+        let (w, h) = (chain.resolved.width, chain.resolved.height);
+
+        // Exposure of the longest capture: fixed, or where auto exposure converged last frame.
+        let exposure_s = self
+            .camera
+            .exposure_s
+            .or(self.last_exposure_s)
+            .unwrap_or(0.01);
+        let captures = chain.hdr.captures(&chain.pixel, exposure_s);
+        let longest = captures
+            .iter()
+            .map(|c| c.start_offset_s + c.time_s)
+            .fold(0.0, f64::max);
+        let rolling = self.effects.is_on(&super::render::ROLLING_SHUTTER);
+        let row_time_s = if rolling {
+            chain
+                .resolved
+                .pixel
+                .row_time_s(h, self.config.update_cycle_s)
+        } else {
+            0.0
+        };
+        let timing = ShutterTiming {
+            frame_time_s: frame.time_s,
+            row_time_s,
+            start_offset_s: 0.0,
+            exposure_s: longest.max(exposure_s),
+        };
+
+        let t = std::time::Instant::now();
+        let rin = RenderInput {
+            frame: &frame,
+            rays: chain.lens.ray_directions(),
+            width: w,
+            height: h,
+            response: &chain.response,
+            timing,
+            ground_truth: gt,
+            seed,
+            cycle,
+        };
+        chain.renderer.render(&rin, &mut b.render);
+        self.times.render_s = t.elapsed().as_secs_f64();
+
+        let t = std::time::Instant::now();
+        chain.lens.apply(
+            &mut b.render.radiance,
+            &mut b.render.flicker,
+            b.render.sun.as_ref(),
+        );
+        self.times.lens_s = t.elapsed().as_secs_f64();
+
+        let t = std::time::Instant::now();
+        let captures = if self.camera.exposure_s.is_none() {
+            let auto = chain.pixel.auto_exposure_s(&b.render.radiance);
+            self.last_exposure_s = Some(auto);
+            chain.hdr.captures(&chain.pixel, auto)
+        } else {
+            captures
+        };
+        b.captures.resize_with(captures.len(), RawImage::default);
+        let temperature_c = chain.resolved.temperature_c;
+        for (k, (spec, raw)) in captures.iter().zip(b.captures.iter_mut()).enumerate() {
+            let noise_seed =
+                seed ^ (cycle.wrapping_mul(0x9E37_79B9_7F4A_7C15)) ^ ((k as u64 + 1) << 56);
+            chain.pixel.expose(
+                &b.render.radiance,
+                &b.render.flicker,
+                spec,
+                &timing,
+                temperature_c,
+                noise_seed,
+                raw,
+            );
+            raw.row_time_s = row_time_s;
+        }
+        chain.hdr.merge(&b.captures, &mut b.linear);
+        chain.hdr.compand(&b.linear, &mut b.companded);
+        self.times.pixel_s = t.elapsed().as_secs_f64();
+
+        let t = std::time::Instant::now();
+        chain.isp.process(&b.linear, &mut b.rgb, &mut b.luminance);
+        self.times.isp_s = t.elapsed().as_secs_f64();
+
+        // Camera height above the road: straight down from the optical centre.
+        let origin = frame.sensor_origin();
+        let camera_height_m = frame
+            .space
+            .closest_hit(&Ray::new(origin, DVec3::NEG_Z).with_t_max(50.0))
+            .map(|hit| hit.distance_m)
+            .unwrap_or_else(|| origin.z.max(0.1));
+        let t = std::time::Instant::now();
+        let rec_in = CameraRecognitionInput {
+            aux: &b.render.aux,
+            luminance: &b.luminance,
+            lens: &chain.lens,
+            ground_truth: gt,
+            frame: &frame.frame,
+            mounting: &frame.mounting,
+            camera_height_m,
+            time_s: frame.time_s,
+            seed,
+            cycle,
+        };
+        self.recognition.step(&rec_in, &mut moving, &mut b.divp);
+        self.times.recognition_s = t.elapsed().as_secs_f64();
+
+        // Outputs.
+        let cfa = match chain.cfa {
+            Cfa::Rggb => ColorFilterArray::CfaRggb,
+            Cfa::Bggr => ColorFilterArray::CfaBggr,
+            Cfa::Grbg => ColorFilterArray::CfaGrbg,
+            Cfa::Gbrg => ColorFilterArray::CfaGbrg,
+        };
+        let emit = self.camera.emit;
+        if emit.raw_exposures {
+            for raw in &b.captures {
+                camera_out
+                    .image
+                    .push(image_u16(raw, Kind::RawExposure, cfa));
+            }
+        }
+        if emit.raw_hdr_linear {
+            camera_out.image.push(image_u32(&b.linear, cfa));
+        }
+        if emit.raw_companded {
+            let mut img = image_u16(&b.companded, Kind::RawHdrCompanded, cfa);
+            img.exposure_index = None;
+            img.companding_knee = chain
+                .hdr
+                .knees()
+                .iter()
+                .map(|k| perception::PwlKnee {
+                    input_dn: Some(k.input_dn),
+                    output_dn: Some(k.output_dn),
+                })
+                .collect();
+            camera_out.image.push(img);
+        }
+        if emit.isp {
+            use perception::camera_image::SampleFormat;
+            camera_out.image.push(perception::CameraImage {
+                kind: Some(Kind::Isp as i32),
+                width_px: Some(b.rgb.width as u32),
+                height_px: Some(b.rgb.height as u32),
+                cfa: Some(ColorFilterArray::CfaRgb as i32),
+                sample_format: Some(SampleFormat::U8 as i32),
+                channels: Some(3),
+                bit_depth: Some(8),
+                data: Some(b.rgb.data.clone()),
+                exposure_time_s: Some(b.linear.exposure_time_s),
+                row_time_s: Some(row_time_s),
+                ..Default::default()
+            });
+        }
+        camera_out.object.append(&mut b.divp);
+        camera_out.temperature_c = Some(temperature_c);
+        camera_out
+            .band_centre_nm
+            .extend_from_slice(&chain.response.bands.centres_nm);
+
+        let sd = &mut out.sensor_data;
+        frame.fill_sensor_data_header(sd, cycle);
+        sd.moving_object = moving;
+        let p = &mut out.perception;
+        p.osi_version = Some(interface_version());
+        p.extension_version = Some(osiris_proto::PERCEPTION_EXTENSION_VERSION.to_string());
+        p.timestamp = Some(frame.timestamp);
+        p.sensor_id = frame.sensor_id;
+        p.mounting_position = Some(frame.mounting);
+        p.model_mode = Some(ModelMode::Physical.name().to_string());
+        p.cycle_counter = Some(cycle);
+        p.camera = Some(camera_out);
+        Ok(())
+    }
+
+    fn reset(&mut self) {
+        self.world.reset();
+        self.recognition.reset();
+        self.chain.isp.reset();
+        self.cycle = 0;
+        self.last_exposure_s = None;
+    }
+}
