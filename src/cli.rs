@@ -97,6 +97,13 @@ pub enum BenchWhat {
     /// Physical radar: the full chain (2,000 paths → IF cube 256 × 128 × 12 → FFTs → CFAR → angles),
     /// frames/s.
     Radar,
+    /// Physical camera: 1280 × 960 frames (ISX019-class) of the reference street with sun, sky,
+    /// shadows and 3-exposure HDR, frames/s and the cost split (render, lens, pixel, ISP,
+    /// recognition).
+    Camera,
+    /// Consistency attribution: 10⁴ residual rows × 30 catalogue effects (forward selection, tie
+    /// check, gates) on a rayon pool of the largest `--threads` (default 2), seconds.
+    Consistency,
 }
 
 #[derive(Debug, Subcommand)]
@@ -131,12 +138,13 @@ pub enum Command {
         /// Thread counts to measure (`space`); the largest is used by `lidar` and `radar`.
         #[arg(long, value_delimiter = ',', default_values_t = [1usize, 2])]
         threads: Vec<usize>,
-        /// Timed frames per measurement; `lidar` and `radar` (default 10 and 40).
+        /// Timed frames per measurement; `lidar`, `radar` and `camera` (default 10, 40 and 5).
         #[arg(long)]
         frames: Option<usize>,
     },
     /// Write one frame of a PerceptionData trace (`out/<sensor>.perception.osi`) as a file:
-    /// a LiDAR point cloud as `.pcd` / `.ply`, a radar range-Doppler map as `.png` / `.csv`.
+    /// a LiDAR point cloud as `.pcd` / `.ply`, a radar range-Doppler map as `.png` / `.csv`, a
+    /// camera image as `.png` (8-bit ISP or 16-bit RAW).
     Export {
         /// PerceptionData trace written by `osiris run`.
         #[arg(value_name = "TRACE")]
@@ -147,6 +155,11 @@ pub enum Command {
         /// Frame index (0-based; default: the last frame that has the requested content).
         #[arg(long, value_name = "N")]
         frame: Option<usize>,
+        /// Camera traces: which image to write as PNG: `isp` (8-bit sRGB, default), `raw`
+        /// (companded HDR RAW, 16-bit), `linear` (linear HDR RAW, 16-bit), `exposure:<N>` (RAW of
+        /// capture N).
+        #[arg(long, value_name = "IMAGE")]
+        image: Option<crate::export::CameraImageSel>,
     },
     /// Compare a model with a measurement campaign: paired residuals, metrics with tolerances,
     /// attribution of the misfit to named physical effects; writes summary.json and report.html.
@@ -251,12 +264,22 @@ pub fn main_with(cli: Cli) -> Result<()> {
                     max_threads,
                     frames.unwrap_or(40).max(1),
                 ),
+                BenchWhat::Camera => osiris_models::camera::bench::bench_camera(
+                    max_threads,
+                    frames.unwrap_or(5).max(1),
+                ),
+                BenchWhat::Consistency => crate::consistency::bench::bench_consistency(max_threads),
             };
             outln!("{}", serde_json::to_string(&figures)?);
             Ok(())
         }
-        Command::Export { trace, out, frame } => {
-            let what = crate::export::export_frame(&trace, frame, &out)?;
+        Command::Export {
+            trace,
+            out,
+            frame,
+            image,
+        } => {
+            let what = crate::export::export_frame_with(&trace, frame, &out, image)?;
             eprintln!("{what}");
             Ok(())
         }

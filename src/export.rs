@@ -6,7 +6,9 @@
 //! * radar range-Doppler map → `.png` (8-bit grey, range bins bottom-up, Doppler bins left to
 //!   right from the most negative range rate; the map is in the trace only when the radar model
 //!   is configured with `"radar": {"emit_range_doppler_map": true}`), and the
-//!   same values as `.csv`.
+//!   same values as `.csv`;
+//! * camera images → `.png`: the ISP output as 8-bit sRGB, a RAW mosaic (companded HDR, one
+//!   capture, or the linear HDR) as 16-bit grey with the DN values (`--image`).
 
 use std::io::Write;
 use std::path::Path;
@@ -19,10 +21,79 @@ use crate::trace::OsiTraceReader;
 /// Image and value bounds of a range-Doppler PNG: the map's peak down to `dynamic_range_db` below.
 pub const RD_MAP_DYNAMIC_RANGE_DB: f32 = 60.0;
 
+/// Which camera image `osiris export --image` writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CameraImageSel {
+    /// The ISP output, 8-bit sRGB.
+    Isp,
+    /// The PWL-companded HDR RAW (16-bit grey PNG, DN as stored).
+    Raw,
+    /// The linear HDR RAW (20–24 bit), shifted right to fit 16 bits.
+    Linear,
+    /// The RAW of one capture of the HDR sequence (0 = most sensitive).
+    Exposure(u32),
+}
+
+impl std::str::FromStr for CameraImageSel {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "isp" => Ok(CameraImageSel::Isp),
+            "raw" => Ok(CameraImageSel::Raw),
+            "linear" => Ok(CameraImageSel::Linear),
+            _ => s
+                .strip_prefix("exposure:")
+                .and_then(|n| n.parse().ok())
+                .map(CameraImageSel::Exposure)
+                .ok_or_else(|| format!("unknown image `{s}` (isp, raw, linear or exposure:<N>)")),
+        }
+    }
+}
+
+impl CameraImageSel {
+    fn matches(self, img: &perception::CameraImage) -> bool {
+        use perception::camera_image::Kind;
+        let kind = img.kind();
+        match self {
+            CameraImageSel::Isp => kind == Kind::Isp,
+            CameraImageSel::Raw => kind == Kind::RawHdrCompanded,
+            CameraImageSel::Linear => kind == Kind::RawHdrLinear,
+            CameraImageSel::Exposure(n) => {
+                kind == Kind::RawExposure && img.exposure_index.unwrap_or(0) == n
+            }
+        }
+    }
+
+    fn describe(self) -> String {
+        match self {
+            CameraImageSel::Isp => "ISP image".into(),
+            CameraImageSel::Raw => "companded RAW image".into(),
+            CameraImageSel::Linear => {
+                "linear HDR RAW image (configure the camera with \"emit\": {\"raw_hdr_linear\": true})"
+                    .into()
+            }
+            CameraImageSel::Exposure(n) => format!(
+                "RAW image of capture {n} (configure the camera with \"emit\": {{\"raw_exposures\": \
+                 true}})"
+            ),
+        }
+    }
+}
+
 /// Read frame `frame` (0-based; `None`: the last frame with content for the output format) of a
 /// PerceptionData trace and write it to `out`; the format follows `out`'s extension. Returns a
 /// one-line description of what was written.
 pub fn export_frame(trace: &Path, frame: Option<usize>, out: &Path) -> Result<String> {
+    export_frame_with(trace, frame, out, None)
+}
+
+/// [`export_frame`] with the camera image to write (`None`: the ISP image for camera traces).
+pub fn export_frame_with(
+    trace: &Path,
+    frame: Option<usize>,
+    out: &Path,
+    image: Option<CameraImageSel>,
+) -> Result<String> {
     let ext = out
         .extension()
         .and_then(|e| e.to_str())
@@ -39,11 +110,20 @@ pub fn export_frame(trace: &Path, frame: Option<usize>, out: &Path) -> Result<St
     }
     let reader =
         OsiTraceReader::open(trace).with_context(|| format!("opening {}", trace.display()))?;
+    let sel = image.unwrap_or(CameraImageSel::Isp);
     let mut chosen: Option<(usize, perception::PerceptionData)> = None;
+    let mut camera_trace = image.is_some();
     for (i, msg) in reader.messages::<perception::PerceptionData>().enumerate() {
         let msg = msg.with_context(|| format!("reading {}", trace.display()))?;
+        camera_trace |= msg.camera.is_some();
         let has = if wants_cloud {
             msg.lidar.is_some()
+        } else if camera_trace {
+            ext == "png"
+                && msg
+                    .camera
+                    .as_ref()
+                    .is_some_and(|c| c.image.iter().any(|img| sel.matches(img)))
         } else {
             msg.radar
                 .as_ref()
@@ -65,9 +145,16 @@ pub fn export_frame(trace: &Path, frame: Option<usize>, out: &Path) -> Result<St
             "{} has no frame with a {}",
             trace.display(),
             if wants_cloud {
-                "LiDAR point cloud"
+                "LiDAR point cloud".to_string()
+            } else if camera_trace {
+                if ext == "png" {
+                    sel.describe()
+                } else {
+                    "camera image in this format (camera images are written as .png)".to_string()
+                }
             } else {
                 "range-Doppler map (configure the radar with \"emit_range_doppler_map\": true)"
+                    .to_string()
             }
         ),
     })?;
@@ -76,6 +163,20 @@ pub fn export_frame(trace: &Path, frame: Option<usize>, out: &Path) -> Result<St
             .map(std::io::BufWriter::new)
             .with_context(|| format!("creating {}", out.display()))
     };
+    if let Some(cam) = msg.camera.as_ref().filter(|_| !wants_cloud && camera_trace) {
+        if ext != "png" {
+            bail!("camera images are written as .png, not .{ext}");
+        }
+        let img = cam
+            .image
+            .iter()
+            .find(|img| sel.matches(img))
+            .with_context(|| format!("frame {index} has no {}", sel.describe()))?;
+        let mut w = create()?;
+        let what = write_camera_png(img, &mut w)?;
+        w.flush()?;
+        return Ok(format!("frame {index}: {what} → {}", out.display()));
+    }
     if wants_cloud {
         let cloud = msg.lidar.as_ref().with_context(|| {
             format!("frame {index} of {} is not a LiDAR frame", trace.display())
@@ -117,6 +218,82 @@ pub fn export_frame(trace: &Path, frame: Option<usize>, out: &Path) -> Result<St
             out.display()
         ))
     }
+}
+
+/// Write a camera image as PNG: U8 RGB as 8-bit RGB, U8 mono as 8-bit grey, U16 mosaics as 16-bit
+/// grey with the stored DN, U32 (linear HDR) as 16-bit grey shifted right by `bit_depth − 16`.
+/// Returns a description.
+pub fn write_camera_png(img: &perception::CameraImage, w: impl Write) -> Result<String> {
+    use perception::camera_image::SampleFormat;
+    let width = img.width_px.unwrap_or(0) as usize;
+    let height = img.height_px.unwrap_or(0) as usize;
+    let channels = img.channels.unwrap_or(1) as usize;
+    let data = img.data.as_deref().unwrap_or_default();
+    if width == 0 || height == 0 || !(channels == 1 || channels == 3) {
+        bail!("malformed camera image: {width} × {height} px, {channels} channels");
+    }
+    let n = width * height * channels;
+    let format = img.sample_format();
+    let bytes_per = match format {
+        SampleFormat::U8 => 1,
+        SampleFormat::U16Le => 2,
+        SampleFormat::U32Le | SampleFormat::F32Le => 4,
+        SampleFormat::Unknown => bail!("camera image without a sample format"),
+    };
+    if data.len() != n * bytes_per {
+        bail!(
+            "malformed camera image: {width} × {height} × {channels} samples of {bytes_per} bytes \
+             need {} bytes, got {}",
+            n * bytes_per,
+            data.len()
+        );
+    }
+    let colour = if channels == 3 {
+        png::ColorType::Rgb
+    } else {
+        png::ColorType::Grayscale
+    };
+    let (depth, pixels, what): (png::BitDepth, Vec<u8>, String) = match format {
+        SampleFormat::U8 => (
+            png::BitDepth::Eight,
+            data.to_vec(),
+            format!("{width} × {height} 8-bit image"),
+        ),
+        SampleFormat::U16Le => (
+            png::BitDepth::Sixteen,
+            data.chunks_exact(2).flat_map(|c| [c[1], c[0]]).collect(),
+            format!(
+                "{width} × {height} RAW ({} significant bits) as 16-bit PNG",
+                img.bit_depth.unwrap_or(16)
+            ),
+        ),
+        SampleFormat::U32Le => {
+            let shift = img.bit_depth.unwrap_or(32).saturating_sub(16);
+            (
+                png::BitDepth::Sixteen,
+                data.chunks_exact(4)
+                    .flat_map(|c| {
+                        let v = u32::from_le_bytes([c[0], c[1], c[2], c[3]]) >> shift;
+                        (v.min(65_535) as u16).to_be_bytes()
+                    })
+                    .collect(),
+                format!(
+                    "{width} × {height} linear RAW ({} bits, shifted right by {shift}) as 16-bit PNG",
+                    img.bit_depth.unwrap_or(32)
+                ),
+            )
+        }
+        SampleFormat::F32Le => bail!("float camera images are not exported (use U16/U32 RAW)"),
+        SampleFormat::Unknown => unreachable!("checked above"),
+    };
+    let mut enc = png::Encoder::new(w, width as u32, height as u32);
+    enc.set_color(colour);
+    enc.set_depth(depth);
+    let mut writer = enc.write_header().context("writing the PNG header")?;
+    writer
+        .write_image_data(&pixels)
+        .context("writing the PNG image")?;
+    Ok(what)
 }
 
 fn check_map(map: &perception::RangeDopplerMap) -> Result<(usize, usize)> {
@@ -233,5 +410,88 @@ mod tests {
                 .unwrap()
                 .starts_with("0.0000,-0.2000,-70.00")
         );
+    }
+
+    fn decode(bytes: Vec<u8>) -> (png::OutputInfo, Vec<u8>) {
+        let dec = png::Decoder::new(std::io::Cursor::new(bytes));
+        let mut reader = dec.read_info().unwrap();
+        let mut buf = vec![0; reader.output_buffer_size()];
+        let info = reader.next_frame(&mut buf).unwrap();
+        buf.truncate(info.buffer_size());
+        (info, buf)
+    }
+
+    #[test]
+    fn camera_raw_and_isp_png() {
+        use perception::camera_image::{Kind, SampleFormat};
+        // 4 × 2 RAW mosaic, 12-bit codes, stored little-endian.
+        let codes: Vec<u16> = vec![0, 1, 255, 256, 4095, 1000, 2, 3];
+        let raw = perception::CameraImage {
+            kind: Some(Kind::RawHdrCompanded as i32),
+            width_px: Some(4),
+            height_px: Some(2),
+            channels: Some(1),
+            bit_depth: Some(12),
+            sample_format: Some(SampleFormat::U16Le as i32),
+            data: Some(codes.iter().flat_map(|v| v.to_le_bytes()).collect()),
+            ..Default::default()
+        };
+        let mut bytes = Vec::new();
+        write_camera_png(&raw, &mut bytes).unwrap();
+        let (info, buf) = decode(bytes);
+        assert_eq!((info.width, info.height), (4, 2));
+        assert_eq!(info.bit_depth, png::BitDepth::Sixteen);
+        let back: Vec<u16> = buf
+            .chunks_exact(2)
+            .map(|c| u16::from_be_bytes([c[0], c[1]]))
+            .collect();
+        assert_eq!(back, codes);
+        // 24-bit linear: shifted right by 8.
+        let lin = perception::CameraImage {
+            kind: Some(Kind::RawHdrLinear as i32),
+            width_px: Some(2),
+            height_px: Some(1),
+            channels: Some(1),
+            bit_depth: Some(24),
+            sample_format: Some(SampleFormat::U32Le as i32),
+            data: Some(
+                [0x00ff_ffffu32, 0x0000_0100]
+                    .iter()
+                    .flat_map(|v| v.to_le_bytes())
+                    .collect(),
+            ),
+            ..Default::default()
+        };
+        let mut bytes = Vec::new();
+        write_camera_png(&lin, &mut bytes).unwrap();
+        let (_, buf) = decode(bytes);
+        assert_eq!(buf, vec![0xff, 0xff, 0x00, 0x01]);
+        // 8-bit RGB.
+        let rgb = perception::CameraImage {
+            kind: Some(Kind::Isp as i32),
+            width_px: Some(2),
+            height_px: Some(1),
+            channels: Some(3),
+            bit_depth: Some(8),
+            sample_format: Some(SampleFormat::U8 as i32),
+            data: Some(vec![1, 2, 3, 4, 5, 6]),
+            ..Default::default()
+        };
+        let mut bytes = Vec::new();
+        write_camera_png(&rgb, &mut bytes).unwrap();
+        let (info, buf) = decode(bytes);
+        assert_eq!(info.color_type, png::ColorType::Rgb);
+        assert_eq!(buf, vec![1, 2, 3, 4, 5, 6]);
+        // Wrong data length is an error, not a panic.
+        let bad = perception::CameraImage {
+            data: Some(vec![0; 3]),
+            ..raw
+        };
+        assert!(write_camera_png(&bad, &mut Vec::new()).is_err());
+        assert_eq!(
+            "exposure:2".parse::<CameraImageSel>(),
+            Ok(CameraImageSel::Exposure(2))
+        );
+        assert!("foo".parse::<CameraImageSel>().is_err());
     }
 }

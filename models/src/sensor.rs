@@ -176,11 +176,12 @@ impl SensorConfig {
     pub fn default_for(kind: SensorKind) -> SensorConfig {
         use std::f64::consts::PI;
         let (range_m, fov_h, fov_v, cycle, pos) = match kind {
-            // Front camera behind the windscreen.
+            // Front camera behind the windscreen: 60° horizontal; 47° vertical is the 4:3
+            // ISX019-class image's (2·atan(¾·tan 30°) = 46.8°).
             SensorKind::Camera => (
                 150.0,
                 60f64.to_radians(),
-                40f64.to_radians(),
+                47f64.to_radians(),
                 0.033,
                 [1.9, 0.0, 1.3],
             ),
@@ -196,12 +197,8 @@ impl SensorConfig {
             // Roof spinning LiDAR (VLS-128: elevations −25°…+15°, so ±25° keeps every channel).
             SensorKind::Lidar => (200.0, 2.0 * PI, 50f64.to_radians(), 0.1, [1.4, 0.0, 1.9]),
         };
-        // The physical model where one exists; the camera runs the ideal model until its physical
-        // model lands.
-        let mode = match kind {
-            SensorKind::Camera => ModelMode::Ideal,
-            SensorKind::Radar | SensorKind::Lidar => ModelMode::Physical,
-        };
+        // Every kind runs its physical model by default (`ideal` is the reference mode).
+        let mode = ModelMode::Physical;
         SensorConfig {
             kind,
             mode,

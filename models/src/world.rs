@@ -385,6 +385,59 @@ pub fn weather_from_osi(env: Option<&osi3::EnvironmentalConditions>, wet: bool) 
     w
 }
 
+/// The OSMP view-configuration handshake shared by the physical models: the request is the ideal
+/// model's (field of view, range, update cycle, mounting, sensor-view type), the granted
+/// configuration may narrow it, and the granted sensor id is kept for the output.
+pub struct Handshake {
+    ideal: crate::ideal::IdealSensor,
+    sensor_id: Option<u64>,
+}
+
+impl Handshake {
+    pub fn new(config: &SensorConfig) -> Handshake {
+        Handshake {
+            ideal: crate::ideal::IdealSensor::new(config.clone()),
+            sensor_id: None,
+        }
+    }
+
+    /// The SensorViewConfiguration to ask the environment simulation for.
+    pub fn request(&self) -> osi3::SensorViewConfiguration {
+        use crate::sensor::SensorModel as _;
+        self.ideal.view_configuration_request()
+    }
+
+    /// Accept a granted configuration: the notes to log, and whether the field of view or range
+    /// changed (the configuration in force is then [`Self::config`], and the model re-plans).
+    pub fn apply(
+        &mut self,
+        granted: &osi3::SensorViewConfiguration,
+    ) -> Result<(Vec<String>, bool), ModelError> {
+        use crate::sensor::SensorModel as _;
+        let before = self.ideal.config().clone();
+        let notes = self.ideal.apply_view_configuration(granted)?;
+        if let Some(v) = granted.sensor_id.and_then(|i| i.value) {
+            self.sensor_id = Some(v);
+        }
+        let c = self.ideal.config();
+        let changed = c.fov_horizontal_rad != before.fov_horizontal_rad
+            || c.fov_vertical_rad != before.fov_vertical_rad
+            || c.range_m != before.range_m;
+        Ok((notes, changed))
+    }
+
+    /// The configuration in force after the handshake.
+    pub fn config(&self) -> &SensorConfig {
+        use crate::sensor::SensorModel as _;
+        self.ideal.config()
+    }
+
+    /// The sensor id granted by the environment simulation.
+    pub fn sensor_id(&self) -> Option<u64> {
+        self.sensor_id
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -10,10 +10,11 @@
 
 use std::collections::BTreeMap;
 
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::campaign::Campaign;
-use super::catalogue::{Catalogue, Effect};
+use super::catalogue::{Catalogue, EffectSignature};
 use super::{NVARS, Row, V_RANGE, quantity, tolerance_of};
 
 /// |cos| between centred signatures above which two effects are not separable on the design.
@@ -26,6 +27,11 @@ pub const GATE_EXPLAINED: f64 = 0.2;
 pub const TIE_DELTA_BIC: f64 = 2.0;
 /// At most this many effects are added per quantity (greedy forward selection).
 pub const MAX_EFFECTS: usize = 3;
+/// Golden-section tolerance of the fits, relative to a parameter's bound span.
+pub const FIT_XTOL: f64 = 1e-5;
+/// Cross-validation folds at most: up to this many groups, leave-one-group-out; beyond, grouped
+/// K-fold with K = this (the cost of gate 2 stays bounded for large campaigns).
+pub const MAX_CV_FOLDS: usize = 10;
 
 /// A station-aggregated residual.
 #[derive(Debug, Clone, Copy)]
@@ -79,7 +85,11 @@ pub fn aggregate(rows: &[Row], q: &str, campaign: &Campaign) -> (Vec<Obs>, Noise
         dof += list.len() - 1;
         all.push(m);
     }
-    let pooled_sd = if dof >= 3 {
+    // Camera ROI rows carry their own standard error (`super::carries_row_sigma`).
+    let own_sigma = super::carries_row_sigma(q);
+    let pooled_sd = if own_sigma {
+        0.0
+    } else if dof >= 3 {
         (ss / dof as f64).sqrt()
     } else if all.len() > 2 {
         // No replicates: the scatter of the station means about their mean (conservative).
@@ -115,6 +125,7 @@ pub fn aggregate(rows: &[Row], q: &str, campaign: &Campaign) -> (Vec<Obs>, Noise
                 let level = x[super::V_SIM] * 10f64.powf(r / 10.0);
                 10.0 / std::f64::consts::LN_10 * (1.0 / 12f64.sqrt()) / level.max(1.0)
             }
+            _ if own_sigma => x[super::V_PRX] / nf.sqrt(),
             _ => 0.0,
         };
         gt2 += gt * gt;
@@ -186,15 +197,22 @@ impl Design<'_> {
         (c, off)
     }
 
-    fn sig(&self, e: &Effect, p: &[f64], out: &mut [f64]) {
+    fn sig(&self, e: &dyn EffectSignature, p: &[f64], out: &mut [f64]) {
         for (o, v) in self.obs.iter().zip(out.iter_mut()) {
-            *v = e.eval(&o.x, p);
+            let s = e.eval(&o.x, p);
+            *v = if s.is_finite() { s } else { 0.0 };
         }
     }
 
     /// Bounded coordinate-descent fit: per parameter a 25-point grid (multi-start) then golden-section
     /// refinement inside the best bracket; `sweeps` passes over all parameters.
-    fn fit(&self, w: &[f64], effs: &[&Effect], init: &[Vec<f64>], sweeps: usize) -> Fit {
+    fn fit(
+        &self,
+        w: &[f64],
+        effs: &[&dyn EffectSignature],
+        init: &[Vec<f64>],
+        sweeps: usize,
+    ) -> Fit {
         let n = self.obs.len();
         let mut params: Vec<Vec<f64>> = init.to_vec();
         let mut sigs: Vec<Vec<f64>> = effs
@@ -202,7 +220,7 @@ impl Design<'_> {
             .zip(&params)
             .map(|(e, p)| {
                 let mut v = vec![0.0; n];
-                self.sig(e, p, &mut v);
+                self.sig(*e, p, &mut v);
                 v
             })
             .collect();
@@ -210,6 +228,8 @@ impl Design<'_> {
         let mut trial = vec![0.0; n];
         let mut total = vec![0.0; n];
         for sweep in 0..sweeps {
+            // Largest parameter move of this sweep, relative to its bounds.
+            let mut moved: f64 = 0.0;
             for k in 0..effs.len() {
                 others.iter_mut().for_each(|v| *v = 0.0);
                 for (j, s) in sigs.iter().enumerate() {
@@ -219,8 +239,8 @@ impl Design<'_> {
                         }
                     }
                 }
-                for pi in 0..params[k].len() {
-                    let [lo, hi] = effs[k].params[pi].bounds;
+                for pi in 0..params[k].len().min(effs[k].params().len()) {
+                    let [lo, hi] = effs[k].params()[pi].bounds;
                     let mut p = params[k].clone();
                     let mut f = |v: f64, p: &mut Vec<f64>| -> f64 {
                         p[pi] = v;
@@ -278,7 +298,7 @@ impl Design<'_> {
                             d = a + gr * (b - a);
                             fd = f(d, &mut p);
                         }
-                        if (b - a).abs() < 1e-7 * (hi - lo) {
+                        if (b - a).abs() < FIT_XTOL * (hi - lo) {
                             break;
                         }
                     }
@@ -287,10 +307,15 @@ impl Design<'_> {
                             best = (fv, v);
                         }
                     }
+                    moved = moved.max((best.1 - params[k][pi]).abs() / (hi - lo));
                     params[k][pi] = best.1;
                     let pk = params[k].clone();
                     self.sig(effs[k], &pk, &mut sigs[k]);
                 }
+            }
+            // Converged: another coordinate sweep would not move any parameter.
+            if sweep > 0 && moved < 10.0 * FIT_XTOL {
+                break;
             }
         }
         let mut total = vec![0.0; n];
@@ -307,46 +332,60 @@ impl Design<'_> {
         }
     }
 
-    /// Leave-one-group-out CV error Σ w (r − prediction)² over the held-out groups.
-    fn cv(&self, w: &[f64], effs: &[&Effect], init: &[Vec<f64>]) -> f64 {
+    /// Leave-one-group-out CV error Σ w (r − prediction)² over the held-out groups. With more than
+    /// [`MAX_CV_FOLDS`] groups, the groups are dealt round-robin (sorted by id) into that many
+    /// folds (grouped K-fold: a group is never split between training and validation). Folds are
+    /// fitted in parallel and summed in fold order (deterministic).
+    fn cv(&self, w: &[f64], effs: &[&dyn EffectSignature], init: &[Vec<f64>]) -> f64 {
         let mut groups: Vec<u64> = self.obs.iter().map(|o| o.group).collect();
         groups.sort_unstable();
         groups.dedup();
         if groups.len() < 2 {
             return f64::NAN;
         }
+        let folds = groups.len().min(MAX_CV_FOLDS);
+        let fold_of: Vec<usize> = self
+            .obs
+            .iter()
+            .map(|o| groups.binary_search(&o.group).unwrap_or(0) % folds)
+            .collect();
         let n = self.obs.len();
-        let mut total = 0.0;
-        let mut wt = vec![0.0; n];
-        let mut s = vec![0.0; n];
-        let mut sum = vec![0.0; n];
-        for g in groups {
-            for ((wt, wi), o) in wt.iter_mut().zip(w).zip(self.obs) {
-                *wt = if o.group == g { 0.0 } else { *wi };
-            }
-            let fit = if effs.is_empty() {
-                Fit {
-                    params: vec![],
-                    chi2: 0.0,
-                    offset: self.chi2(&wt, &vec![0.0; n]).1,
+        let parts: Vec<f64> = (0..folds)
+            .into_par_iter()
+            .map(|g| {
+                let wt: Vec<f64> = w
+                    .iter()
+                    .zip(&fold_of)
+                    .map(|(wi, f)| if *f == g { 0.0 } else { *wi })
+                    .collect();
+                let fit = if effs.is_empty() {
+                    Fit {
+                        params: vec![],
+                        chi2: 0.0,
+                        offset: self.chi2(&wt, &vec![0.0; n]).1,
+                    }
+                } else {
+                    self.fit(&wt, effs, init, 1)
+                };
+                let mut s = vec![0.0; n];
+                let mut sum = vec![0.0; n];
+                for (e, p) in effs.iter().zip(&fit.params) {
+                    self.sig(*e, p, &mut s);
+                    for (a, b) in sum.iter_mut().zip(&s) {
+                        *a += b;
+                    }
                 }
-            } else {
-                self.fit(&wt, effs, init, 1)
-            };
-            sum.iter_mut().for_each(|v| *v = 0.0);
-            for (e, p) in effs.iter().zip(&fit.params) {
-                self.sig(e, p, &mut s);
-                for (a, b) in sum.iter_mut().zip(&s) {
-                    *a += b;
-                }
-            }
-            for ((o, wi), si) in self.obs.iter().zip(w).zip(&sum) {
-                if o.group == g {
-                    total += wi * (o.r - si - fit.offset).powi(2);
-                }
-            }
-        }
-        total
+                self.obs
+                    .iter()
+                    .zip(w)
+                    .zip(&sum)
+                    .zip(&fold_of)
+                    .filter(|(_, f)| **f == g)
+                    .map(|(((o, wi), si), _)| wi * (o.r - si - fit.offset).powi(2))
+                    .sum::<f64>()
+            })
+            .collect();
+        parts.iter().sum()
     }
 }
 
@@ -484,7 +523,7 @@ fn bic(chi2: f64, k: usize, n: usize) -> f64 {
 }
 
 /// Weighted, centred (when an offset is fitted) and normalised signature vector.
-fn unit_signature(d: &Design, w: &[f64], e: &Effect, p: &[f64]) -> Option<Vec<f64>> {
+fn unit_signature(d: &Design, w: &[f64], e: &dyn EffectSignature, p: &[f64]) -> Option<Vec<f64>> {
     let mut s = vec![0.0; d.obs.len()];
     d.sig(e, p, &mut s);
     if d.offset {
@@ -525,7 +564,7 @@ pub fn attribute_quantity(
     };
     let w: Vec<f64> = obs.iter().map(|o| 1.0 / (o.sigma * o.sigma)).collect();
     let k0 = usize::from(d.offset);
-    let cands: Vec<&Effect> = catalogue.for_quantity(q).collect();
+    let cands: Vec<&dyn EffectSignature> = catalogue.for_quantity(q).collect();
 
     // 2. Nuisance baseline.
     let base = d.fit(&w, &[], &[], 0);
@@ -536,7 +575,7 @@ pub fn attribute_quantity(
     // 3. Identifiability on the design, before any fit.
     let units: Vec<Option<Vec<f64>>> = cands
         .iter()
-        .map(|e| unit_signature(&d, &w, e, &e.nominal()))
+        .map(|e| unit_signature(&d, &w, *e, &e.nominal()))
         .collect();
     let mut cos_pairs: Vec<(usize, usize, f64)> = Vec::new();
     for i in 0..cands.len() {
@@ -563,84 +602,99 @@ pub fn attribute_quantity(
     let mut results: BTreeMap<usize, EffectResult> = BTreeMap::new();
     let mut tie_groups: Vec<TieGroup> = Vec::new();
     let mut tie_of: BTreeMap<usize, String> = BTreeMap::new();
+    // CV error of the current model: the winner's CV error of the step that accepted it (same
+    // effects, same start values, same weights), so each step computes one CV instead of two.
+    let mut cv_current: Option<f64> = None;
     for step in 1..=MAX_EFFECTS {
         let cur_bic = bic(cur_fit.chi2, cur_k, n);
-        let mut trials: Vec<(usize, Fit, f64)> = Vec::new();
-        for (ci, e) in cands.iter().enumerate() {
-            if current.contains(&ci) {
-                continue;
-            }
-            let effs: Vec<&Effect> = current.iter().map(|&i| cands[i]).chain([*e]).collect();
-            let init: Vec<Vec<f64>> = cur_fit
-                .params
-                .iter()
-                .cloned()
-                .chain([e.nominal()])
-                .collect();
-            let fit = d.fit(
-                &w,
-                &effs,
-                &init,
-                if effs.len() == 1 && e.params.len() == 1 {
-                    1
-                } else {
-                    3
-                },
-            );
-            let b = bic(fit.chi2, cur_k + e.params.len(), n);
-            trials.push((ci, fit, b));
-        }
+        // The candidates' fits are independent: one rayon task each (deterministic: every fit is
+        // a pure function of its inputs, the order is restored by the sort below).
+        let mut trials: Vec<(usize, Fit, f64)> = cands
+            .par_iter()
+            .enumerate()
+            .filter(|(ci, _)| !current.contains(ci))
+            .map(|(ci, e)| {
+                let effs: Vec<&dyn EffectSignature> =
+                    current.iter().map(|&i| cands[i]).chain([*e]).collect();
+                let init: Vec<Vec<f64>> = cur_fit
+                    .params
+                    .iter()
+                    .cloned()
+                    .chain([e.nominal()])
+                    .collect();
+                let fit = d.fit(
+                    &w,
+                    &effs,
+                    &init,
+                    if effs.len() == 1 && e.params().len() == 1 {
+                        1
+                    } else {
+                        3
+                    },
+                );
+                let b = bic(fit.chi2, cur_k + e.params().len(), n);
+                (ci, fit, b)
+            })
+            .collect();
         if trials.is_empty() {
             break;
         }
-        trials.sort_by(|a, b| a.2.total_cmp(&b.2));
+        trials.sort_by(|a, b| a.2.total_cmp(&b.2).then(a.0.cmp(&b.0)));
         let best_bic = trials[0].2;
         let wsum_b: f64 = trials.iter().map(|t| (-(t.2 - best_bic) / 2.0).exp()).sum();
         let dof_cur = n.saturating_sub(cur_k).max(1) as f64;
         let excess = cur_fit.chi2 - dof_cur;
-        for (rank, (ci, fit, b)) in trials.iter().enumerate() {
-            let e = cands[*ci];
-            let p_new = fit.params.last().cloned().unwrap_or_default();
-            let mut s = vec![0.0; n];
-            d.sig(e, &p_new, &mut s);
-            let m = if d.offset {
-                s.iter().zip(&w).map(|(a, b)| a * b).sum::<f64>() / wsum
-            } else {
-                0.0
-            };
-            let max_c = s.iter().map(|v| (v - m).abs()).fold(0.0, f64::max);
-            let delta_bic = cur_bic - b;
-            let explained = if excess > 0.0 {
-                (cur_fit.chi2 - fit.chi2) / excess
-            } else {
-                0.0
-            };
-            let mut gates = Gates {
-                delta_bic: delta_bic >= GATE_DELTA_BIC,
-                cv: false,
-                explained: explained >= GATE_EXPLAINED,
-                max_contribution: max_c >= tol / 10.0,
-            };
-            let mut cv_gain = None;
-            if rank == 0 && gates.delta_bic && gates.explained && gates.max_contribution {
-                let before_effs: Vec<&Effect> = current.iter().map(|&i| cands[i]).collect();
-                let cv0 = d.cv(&w, &before_effs, &cur_fit.params);
-                let effs: Vec<&Effect> = before_effs.iter().copied().chain([e]).collect();
-                let cv1 = d.cv(&w, &effs, &fit.params);
-                gates.cv = cv0.is_nan() || cv1 < cv0;
-                cv_gain = Some(if cv0 > 0.0 { 1.0 - cv1 / cv0 } else { 0.0 });
-            }
-            // Parameter CIs (conditional profile: Δχ² = max(1, χ²/dof)).
-            let dof_new = n.saturating_sub(cur_k + e.params.len()).max(1) as f64;
-            let infl = (fit.chi2 / dof_new).max(1.0);
-            let effs: Vec<&Effect> = current.iter().map(|&i| cands[i]).chain([e]).collect();
-            let params = profile(&d, &w, &effs, fit, infl);
-            let accepted_prev = results.get(ci).is_some_and(|r| r.accepted);
-            if !accepted_prev {
-                results.insert(
+        let step_results: Vec<(usize, EffectResult, Option<f64>)> = trials
+            .par_iter()
+            .enumerate()
+            .map(|(rank, (ci, fit, b))| {
+                let e = cands[*ci];
+                let p_new = fit.params.last().cloned().unwrap_or_default();
+                let mut s = vec![0.0; n];
+                d.sig(e, &p_new, &mut s);
+                let m = if d.offset {
+                    s.iter().zip(&w).map(|(a, b)| a * b).sum::<f64>() / wsum
+                } else {
+                    0.0
+                };
+                let max_c = s.iter().map(|v| (v - m).abs()).fold(0.0, f64::max);
+                let delta_bic = cur_bic - b;
+                let explained = if excess > 0.0 {
+                    (cur_fit.chi2 - fit.chi2) / excess
+                } else {
+                    0.0
+                };
+                let mut gates = Gates {
+                    delta_bic: delta_bic >= GATE_DELTA_BIC,
+                    cv: false,
+                    explained: explained >= GATE_EXPLAINED,
+                    max_contribution: max_c >= tol / 10.0,
+                };
+                let mut cv_gain = None;
+                let mut cv_new = None;
+                if rank == 0 && gates.delta_bic && gates.explained && gates.max_contribution {
+                    let before_effs: Vec<&dyn EffectSignature> =
+                        current.iter().map(|&i| cands[i]).collect();
+                    let effs: Vec<&dyn EffectSignature> =
+                        before_effs.iter().copied().chain([e]).collect();
+                    let (cv0, cv1) = rayon::join(
+                        || cv_current.unwrap_or_else(|| d.cv(&w, &before_effs, &cur_fit.params)),
+                        || d.cv(&w, &effs, &fit.params),
+                    );
+                    cv_new = Some(cv1);
+                    gates.cv = cv0.is_nan() || cv1 < cv0;
+                    cv_gain = Some(if cv0 > 0.0 { 1.0 - cv1 / cv0 } else { 0.0 });
+                }
+                // Parameter CIs (conditional profile: Δχ² = max(1, χ²/dof)).
+                let dof_new = n.saturating_sub(cur_k + e.params().len()).max(1) as f64;
+                let infl = (fit.chi2 / dof_new).max(1.0);
+                let effs: Vec<&dyn EffectSignature> =
+                    current.iter().map(|&i| cands[i]).chain([e]).collect();
+                let params = profile(&d, &w, &effs, fit, infl);
+                (
                     *ci,
                     EffectResult {
-                        id: e.id.clone(),
+                        id: e.id().to_owned(),
                         quantity: q.to_owned(),
                         accepted: false,
                         delta_bic,
@@ -652,10 +706,20 @@ pub fn attribute_quantity(
                         tie_group: None,
                         gates,
                         step,
-                        model_switch: e.model_switch.clone(),
-                        discriminating_experiment: e.discriminating_experiment.clone(),
+                        model_switch: e.model_switch().map(str::to_owned),
+                        discriminating_experiment: e.discriminating_experiment().to_owned(),
                     },
-                );
+                    cv_new,
+                )
+            })
+            .collect();
+        let mut cv_winner = None;
+        for (ci, r, cv) in step_results {
+            if cv.is_some() {
+                cv_winner = cv;
+            }
+            if !results.get(&ci).is_some_and(|r| r.accepted) {
+                results.insert(ci, r);
             }
         }
         let (wi, wfit, _) = &trials[0];
@@ -690,7 +754,7 @@ pub fn attribute_quantity(
                 .fold(0.0, f64::max);
             let experiments: Vec<String> = members
                 .iter()
-                .map(|&m| cands[m].discriminating_experiment.clone())
+                .map(|&m| cands[m].discriminating_experiment().to_owned())
                 .filter(|s| !s.is_empty())
                 .collect::<std::collections::BTreeSet<_>>()
                 .into_iter()
@@ -701,7 +765,7 @@ pub fn attribute_quantity(
             tie_groups.push(TieGroup {
                 id,
                 quantity: q.to_owned(),
-                members: members.iter().map(|&m| cands[m].id.clone()).collect(),
+                members: members.iter().map(|&m| cands[m].id().to_owned()).collect(),
                 max_abs_cos: max_cos,
                 reason,
                 discriminating_experiment: experiments.join("; "),
@@ -712,8 +776,9 @@ pub fn attribute_quantity(
         }
         results.get_mut(wi).expect("winner").accepted = true;
         current.push(*wi);
-        cur_k += cands[*wi].params.len();
+        cur_k += cands[*wi].params().len();
         cur_fit = wfit.clone();
+        cv_current = cv_winner;
     }
     // Pre-fit signature ties not involving an accepted or already grouped effect are reported too
     // (design remarks: these effects could not be told apart here if they were needed).
@@ -731,19 +796,20 @@ pub fn attribute_quantity(
         tie_groups.push(TieGroup {
             id,
             quantity: q.to_owned(),
-            members: vec![cands[*i].id.clone(), cands[*j].id.clone()],
+            members: vec![cands[*i].id().to_owned(), cands[*j].id().to_owned()],
             max_abs_cos: *c,
             reason: "signature".into(),
             discriminating_experiment: format!(
                 "{}; {}",
-                cands[*i].discriminating_experiment, cands[*j].discriminating_experiment
+                cands[*i].discriminating_experiment(),
+                cands[*j].discriminating_experiment()
             ),
         });
     }
     for (ci, r) in results.iter_mut() {
         r.tie_group = tie_of.get(ci).cloned();
     }
-    let accepted: Vec<String> = current.iter().map(|&i| cands[i].id.clone()).collect();
+    let accepted: Vec<String> = current.iter().map(|&i| cands[i].id().to_owned()).collect();
     let abs_cos: Vec<Vec<f64>> = (0..cands.len())
         .map(|i| {
             (0..cands.len())
@@ -829,7 +895,7 @@ pub fn attribute_quantity(
         accepted,
         effects,
         tie_groups,
-        candidates: cands.iter().map(|e| e.id.clone()).collect(),
+        candidates: cands.iter().map(|e| e.id().to_owned()).collect(),
         abs_cos,
         diagnostics,
         what_if,
@@ -837,7 +903,13 @@ pub fn attribute_quantity(
 }
 
 /// Conditional profile-likelihood intervals of the last effect's parameters.
-fn profile(d: &Design, w: &[f64], effs: &[&Effect], fit: &Fit, infl: f64) -> Vec<ParamEstimate> {
+fn profile(
+    d: &Design,
+    w: &[f64],
+    effs: &[&dyn EffectSignature],
+    fit: &Fit,
+    infl: f64,
+) -> Vec<ParamEstimate> {
     let n = d.obs.len();
     let k = effs.len() - 1;
     let e = effs[k];
@@ -845,7 +917,7 @@ fn profile(d: &Design, w: &[f64], effs: &[&Effect], fit: &Fit, infl: f64) -> Vec
     let mut s = vec![0.0; n];
     for (j, (ej, p)) in effs.iter().zip(&fit.params).enumerate() {
         if j != k {
-            d.sig(ej, p, &mut s);
+            d.sig(*ej, p, &mut s);
             for (a, b) in others.iter_mut().zip(&s) {
                 *a += b;
             }
@@ -862,7 +934,7 @@ fn profile(d: &Design, w: &[f64], effs: &[&Effect], fit: &Fit, infl: f64) -> Vec
     };
     let c0 = chi(&p_hat);
     let target = c0 + infl;
-    e.params
+    e.params()
         .iter()
         .enumerate()
         .map(|(pi, par)| {

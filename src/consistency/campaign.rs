@@ -367,6 +367,13 @@ pub struct Tolerances {
     pub intensity_db: f64,
     pub points_on_target_pct: f64,
     pub gap_points: f64,
+    /// Camera ROI mean, % of the simulated signal above black (osiris default 5 %, guessed).
+    pub roi_mean_pct: f64,
+    /// Camera ROI variance, % of the simulated variance (osiris default 20 %, guessed).
+    pub roi_variance_pct: f64,
+    /// Camera ROI mean in DN (attribution); absent (`inf`): `roi_mean_pct` × the median simulated
+    /// signal of the lit ROIs, set by `camera.rs`.
+    pub roi_mean_dn: f64,
 }
 
 impl Default for Tolerances {
@@ -383,6 +390,9 @@ impl Default for Tolerances {
             intensity_db: 3.0,
             points_on_target_pct: 20.0,
             gap_points: 1.0,
+            roi_mean_pct: 5.0,
+            roi_variance_pct: 20.0,
+            roi_mean_dn: f64::INFINITY,
         }
     }
 }
@@ -532,6 +542,13 @@ impl Campaign {
             quantity_semantics,
             model: t.str_opt("model")?.map(|p| dir.join(p)),
         };
+        if kind == CampaignSensor::Camera {
+            // Read (and checked) by `camera::CameraCampaign`.
+            super::camera::SENSOR_KEYS.iter().for_each(|k| _ = t.get(k));
+            super::camera::ROOT_KEYS
+                .iter()
+                .for_each(|k| _ = root.get(k));
+        }
         t.finish(&mut warnings);
 
         // [environment]
@@ -636,6 +653,9 @@ impl Campaign {
             intensity_db: t.f64_or("intensity_db", d.intensity_db)?,
             points_on_target_pct: t.f64_or("points_on_target_pct", d.points_on_target_pct)?,
             gap_points: t.f64_or("gap_points", d.gap_points)?,
+            roi_mean_pct: t.f64_or("roi_mean_pct", d.roi_mean_pct)?,
+            roi_variance_pct: t.f64_or("roi_variance_pct", d.roi_variance_pct)?,
+            roi_mean_dn: t.f64_or("roi_mean_dn", d.roi_mean_dn)?,
         };
         t.finish(&mut warnings);
         for (k, v) in [
@@ -647,6 +667,8 @@ impl Campaign {
             ("intensity_db", tolerance.intensity_db),
             ("points_on_target_pct", tolerance.points_on_target_pct),
             ("gap_points", tolerance.gap_points),
+            ("roi_mean_pct", tolerance.roi_mean_pct),
+            ("roi_variance_pct", tolerance.roi_variance_pct),
         ] {
             if !(v > 0.0 && v.is_finite()) {
                 bail!("consistency.toml: `tolerance.{k}` must be a finite number > 0, got {v}");
@@ -699,7 +721,11 @@ impl Campaign {
         // [traces]
         let t = req_table("traces")?;
         let sensor_view = dir.join(t.str_req("sensor_view")?);
-        let sensor_data = dir.join(t.str_req("sensor_data")?);
+        // Camera campaigns carry RAW frames (`[[frame]]`) instead of a SensorData trace.
+        let sensor_data = match kind {
+            CampaignSensor::Camera => dir.join(t.str_opt("sensor_data")?.unwrap_or_default()),
+            _ => dir.join(t.str_req("sensor_data")?),
+        };
         t.finish(&mut warnings);
 
         root.finish(&mut warnings);

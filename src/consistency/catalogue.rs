@@ -2,18 +2,33 @@
 //! (`models/resources/consistency/{radar,lidar}.toml`), each entry a residual signature with 0–2
 //! bounded parameters, its explanatory variables, the osiris effect switch that adds the physics to
 //! the model, the effects it can be confused with and the experiment that separates them.
+//!
+//! # Adding an effect
+//! Every entry implements [`EffectSignature`]: the TOML entries are one implementation
+//! ([`Effect`], a parsed signature expression); a user writes another in Rust and adds it with
+//! [`Catalogue::register`]. The attribution ([`super::attribution`]) only sees the trait.
+//! `examples/custom_effect.rs` writes a radome loss from scratch, finds it on a campaign and then
+//! enables it.
+
+use std::sync::Arc;
 
 use anyhow::{Context, Result, anyhow, bail};
 use serde::Serialize;
 
 use super::VAR_NAMES;
 use super::campaign::{CampaignSensor, TVal, parse_toml};
-use super::expr::Expr;
+use super::expr::{Expr, Program};
 
 /// The built-in radar catalogue.
 pub const RADAR_TOML: &str = include_str!("../../models/resources/consistency/radar.toml");
 /// The built-in LiDAR catalogue.
 pub const LIDAR_TOML: &str = include_str!("../../models/resources/consistency/lidar.toml");
+/// The built-in camera catalogue (ROI mean and variance; variable mapping in `camera.rs`).
+pub const CAMERA_TOML: &str = include_str!("../../models/resources/consistency/camera.toml");
+
+/// Most parameters an effect may have (validation.md §4: 0–2 bounded parameters keep the
+/// forward selection identifiable and fast).
+pub const MAX_PARAMS: usize = 2;
 
 /// A bounded parameter.
 #[derive(Debug, Clone, Serialize)]
@@ -24,7 +39,108 @@ pub struct Param {
     pub nominal: f64,
 }
 
-/// One catalogue entry.
+impl Param {
+    /// A parameter with bounds `[lo, hi]` and the value the identifiability check uses.
+    pub fn new(name: &str, bounds: [f64; 2], nominal: f64) -> Param {
+        Param {
+            name: name.to_owned(),
+            bounds,
+            nominal,
+        }
+    }
+}
+
+/// One effect of the catalogue: a residual signature s(x; θ) in the natural unit of its quantity
+/// (meas − sim), with 0–2 bounded parameters, and its documentation (validation.md §4).
+///
+/// Implement it and add the effect with [`Catalogue::register`]; the attribution fits `eval` over
+/// the station-aggregated residuals (a calibration offset is always fitted beside it, so a constant
+/// part of the signature is irrelevant).
+pub trait EffectSignature: Send + Sync {
+    /// Unique id, `<sensor>.<effect>` (e.g. `radar.radome_loss`).
+    fn id(&self) -> &str;
+    /// The residual quantity it acts on ([`super::quantity`], e.g. `power_db`).
+    fn quantity(&self) -> &str;
+    /// The bounded parameters θ (at most [`MAX_PARAMS`]).
+    fn params(&self) -> &[Param];
+    /// The signature s(x; θ) at the explanatory variables `x` (indexed as [`VAR_NAMES`]) and
+    /// parameters `p` (same order as [`EffectSignature::params`]). Must not allocate (it runs
+    /// inside the fits); a non-finite value counts as 0.
+    fn eval(&self, x: &[f64], p: &[f64]) -> f64;
+    /// Explanatory variables the signature reads ([`VAR_NAMES`]).
+    fn explanatory(&self) -> &[String] {
+        &[]
+    }
+    /// Interface layers where the effect shows (`raw`, `detections`, `points`, ...).
+    fn layer(&self) -> &[String] {
+        &[]
+    }
+    /// Human-readable formula of the signature.
+    fn signature(&self) -> &str {
+        ""
+    }
+    /// The osiris effect switch that adds the physics to the model (None = not implemented yet).
+    fn model_switch(&self) -> Option<&str> {
+        None
+    }
+    /// Effects with a similar signature on typical designs.
+    fn confusable_with(&self) -> &[String] {
+        &[]
+    }
+    /// The experiment that separates it from the confusable effects.
+    fn discriminating_experiment(&self) -> &str {
+        ""
+    }
+    /// Physics and its source.
+    fn physics(&self) -> &str {
+        ""
+    }
+    /// Nominal parameter values (identifiability check, fit start).
+    fn nominal(&self) -> Vec<f64> {
+        self.params().iter().map(|p| p.nominal).collect()
+    }
+}
+
+/// Checks an effect's declaration; errors name the effect and the field.
+pub fn validate(e: &dyn EffectSignature) -> Result<()> {
+    let id = e.id();
+    if id.trim().is_empty() {
+        bail!("catalogue: an effect has an empty id");
+    }
+    if e.quantity().trim().is_empty() {
+        bail!("catalogue effect `{id}`: `quantity` is empty");
+    }
+    if e.params().len() > MAX_PARAMS {
+        bail!("catalogue effect `{id}`: at most {MAX_PARAMS} parameters");
+    }
+    for p in e.params() {
+        let [lo, hi] = p.bounds;
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+            bail!(
+                "catalogue effect `{id}`: param `{}` bounds must be finite [lo, hi] with lo < hi",
+                p.name
+            );
+        }
+        if !(lo..=hi).contains(&p.nominal) {
+            bail!(
+                "catalogue effect `{id}`: param `{}` nominal {} outside its bounds",
+                p.name,
+                p.nominal
+            );
+        }
+    }
+    for v in e.explanatory() {
+        if !VAR_NAMES.contains(&v.as_str()) {
+            bail!(
+                "catalogue effect `{id}`: unknown explanatory variable `{v}` (known: {})",
+                VAR_NAMES.join(", ")
+            );
+        }
+    }
+    Ok(())
+}
+
+/// One TOML catalogue entry: the signature is an [`Expr`] over [`VAR_NAMES`].
 #[derive(Debug, Clone, Serialize)]
 pub struct Effect {
     pub id: String,
@@ -34,6 +150,9 @@ pub struct Effect {
     pub signature: String,
     #[serde(skip)]
     pub expr: Expr,
+    /// `expr` compiled (what [`Effect::eval`] runs).
+    #[serde(skip)]
+    pub program: Program,
     pub params: Vec<Param>,
     /// osiris effect switch that adds the physics to the model (None = not implemented yet).
     pub model_switch: Option<String>,
@@ -43,9 +162,45 @@ pub struct Effect {
 }
 
 impl Effect {
-    /// Signature value at variables `x` and parameters `p`.
+    /// An expression effect built in code: `signature` over [`VAR_NAMES`], the constants `consts`
+    /// and the parameters (`p0`, `p1` or their names).
+    pub fn from_signature(
+        id: &str,
+        quantity: &str,
+        signature: &str,
+        consts: &[(String, f64)],
+        params: Vec<Param>,
+    ) -> Result<Effect> {
+        let names: Vec<String> = params.iter().map(|p| p.name.clone()).collect();
+        let expr = Expr::parse(signature, &VAR_NAMES, consts, &names)
+            .with_context(|| format!("catalogue effect `{id}`"))?;
+        let explanatory = VAR_NAMES
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| expr.uses_var(*i))
+            .map(|(_, v)| (*v).to_owned())
+            .collect();
+        let e = Effect {
+            id: id.to_owned(),
+            layer: Vec::new(),
+            quantity: quantity.to_owned(),
+            explanatory,
+            signature: signature.to_owned(),
+            program: Program::compile(&expr),
+            expr,
+            params,
+            model_switch: None,
+            confusable_with: Vec::new(),
+            discriminating_experiment: String::new(),
+            physics: String::new(),
+        };
+        validate(&e)?;
+        Ok(e)
+    }
+
+    /// Signature value at variables `x` and parameters `p` (0 where not finite).
     pub fn eval(&self, x: &[f64], p: &[f64]) -> f64 {
-        let v = self.expr.eval(x, p);
+        let v = self.program.eval(x, p);
         if v.is_finite() { v } else { 0.0 }
     }
 
@@ -54,27 +209,198 @@ impl Effect {
     }
 }
 
-/// A versioned catalogue of one sensor.
+impl EffectSignature for Effect {
+    fn id(&self) -> &str {
+        &self.id
+    }
+    fn quantity(&self) -> &str {
+        &self.quantity
+    }
+    fn params(&self) -> &[Param] {
+        &self.params
+    }
+    fn eval(&self, x: &[f64], p: &[f64]) -> f64 {
+        Effect::eval(self, x, p)
+    }
+    fn explanatory(&self) -> &[String] {
+        &self.explanatory
+    }
+    fn layer(&self) -> &[String] {
+        &self.layer
+    }
+    fn signature(&self) -> &str {
+        &self.signature
+    }
+    fn model_switch(&self) -> Option<&str> {
+        self.model_switch.as_deref()
+    }
+    fn confusable_with(&self) -> &[String] {
+        &self.confusable_with
+    }
+    fn discriminating_experiment(&self) -> &str {
+        &self.discriminating_experiment
+    }
+    fn physics(&self) -> &str {
+        &self.physics
+    }
+}
+
+/// The documentation of one effect (what `summary.json` / `osiris effects`-like listings show).
 #[derive(Debug, Clone, Serialize)]
+pub struct EffectDoc {
+    pub id: String,
+    pub quantity: String,
+    pub layer: Vec<String>,
+    pub explanatory: Vec<String>,
+    pub signature: String,
+    pub params: Vec<Param>,
+    pub model_switch: Option<String>,
+    pub confusable_with: Vec<String>,
+    pub discriminating_experiment: String,
+    pub physics: String,
+}
+
+impl EffectDoc {
+    /// The documentation of any effect.
+    pub fn of(e: &dyn EffectSignature) -> EffectDoc {
+        EffectDoc {
+            id: e.id().to_owned(),
+            quantity: e.quantity().to_owned(),
+            layer: e.layer().to_vec(),
+            explanatory: e.explanatory().to_vec(),
+            signature: e.signature().to_owned(),
+            params: e.params().to_vec(),
+            model_switch: e.model_switch().map(str::to_owned),
+            confusable_with: e.confusable_with().to_vec(),
+            discriminating_experiment: e.discriminating_experiment().to_owned(),
+            physics: e.physics().to_owned(),
+        }
+    }
+}
+
+thread_local! {
+    /// Catalogues installed by [`Catalogue::install`] on this thread (innermost last).
+    static INSTALLED: std::cell::RefCell<Vec<Catalogue>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// A versioned catalogue of one sensor: the built-in TOML entries plus registered effects.
+#[derive(Clone)]
 pub struct Catalogue {
     pub sensor: String,
     pub version: String,
-    pub effects: Vec<Effect>,
+    pub effects: Vec<Arc<dyn EffectSignature>>,
+}
+
+impl std::fmt::Debug for Catalogue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Catalogue")
+            .field("sensor", &self.sensor)
+            .field("version", &self.version)
+            .field(
+                "effects",
+                &self.effects.iter().map(|e| e.id()).collect::<Vec<_>>(),
+            )
+            .finish()
+    }
+}
+
+impl Serialize for Catalogue {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        #[derive(Serialize)]
+        struct View<'a> {
+            sensor: &'a str,
+            version: &'a str,
+            effects: Vec<EffectDoc>,
+        }
+        View {
+            sensor: &self.sensor,
+            version: &self.version,
+            effects: self.docs(),
+        }
+        .serialize(s)
+    }
 }
 
 impl Catalogue {
     /// The built-in catalogue of a sensor kind.
+    ///
+    /// Inside [`Catalogue::install`] on this thread, the installed catalogue of that sensor is
+    /// returned instead (the built-in entries plus the user's registered effects).
     pub fn builtin(kind: CampaignSensor) -> Result<Catalogue> {
+        if let Some(c) = INSTALLED.with(|list| {
+            list.borrow()
+                .iter()
+                .rev()
+                .find(|c| c.sensor == kind.name())
+                .cloned()
+        }) {
+            return Ok(c);
+        }
         match kind {
             CampaignSensor::Radar => Catalogue::parse(RADAR_TOML),
             CampaignSensor::Lidar => Catalogue::parse(LIDAR_TOML),
-            CampaignSensor::Camera => bail!("no camera catalogue yet"),
+            CampaignSensor::Camera => Catalogue::parse(CAMERA_TOML),
         }
     }
 
+    /// Runs `f` with this catalogue in place of the built-in catalogue of its sensor on the
+    /// current thread: `osiris consistency` run as a library inside `f`
+    /// ([`super::cli::run_with`]) attributes with the registered effects too. Scoped: the
+    /// built-in catalogue is back when `f` returns (or panics); other threads are not affected.
+    pub fn install<R>(&self, f: impl FnOnce() -> R) -> R {
+        struct Pop;
+        impl Drop for Pop {
+            fn drop(&mut self) {
+                INSTALLED.with(|list| {
+                    list.borrow_mut().pop();
+                });
+            }
+        }
+        INSTALLED.with(|list| list.borrow_mut().push(self.clone()));
+        let _pop = Pop;
+        f()
+    }
+
+    /// Adds a user effect (validated; its id must be new). A registered effect takes part in the
+    /// attribution of its quantity like a built-in one.
+    pub fn register(&mut self, effect: Box<dyn EffectSignature>) -> Result<()> {
+        validate(effect.as_ref())?;
+        if self.get(effect.id()).is_some() {
+            bail!(
+                "catalogue: effect `{}` is already in the {} catalogue",
+                effect.id(),
+                self.sensor
+            );
+        }
+        self.effects.push(Arc::from(effect));
+        Ok(())
+    }
+
+    /// The effect of an id.
+    pub fn get(&self, id: &str) -> Option<&dyn EffectSignature> {
+        self.effects
+            .iter()
+            .find(|e| e.id() == id)
+            .map(|e| e.as_ref())
+    }
+
     /// Effects acting on one quantity.
-    pub fn for_quantity<'a>(&'a self, q: &'a str) -> impl Iterator<Item = &'a Effect> + 'a {
-        self.effects.iter().filter(move |e| e.quantity == q)
+    pub fn for_quantity<'a>(
+        &'a self,
+        q: &'a str,
+    ) -> impl Iterator<Item = &'a dyn EffectSignature> + 'a {
+        self.effects
+            .iter()
+            .filter(move |e| e.quantity() == q)
+            .map(|e| e.as_ref())
+    }
+
+    /// The documentation of every effect.
+    pub fn docs(&self) -> Vec<EffectDoc> {
+        self.effects
+            .iter()
+            .map(|e| EffectDoc::of(e.as_ref()))
+            .collect()
     }
 
     /// Parses a catalogue TOML.
@@ -105,7 +431,7 @@ impl Catalogue {
         };
         let sensor = s(get(&root, "sensor"), "sensor")?;
         let version = s(get(&root, "version"), "version")?;
-        let mut effects = Vec::new();
+        let mut effects: Vec<Arc<dyn EffectSignature>> = Vec::new();
         let Some(TVal::Arr(list)) = get(&root, "effect") else {
             bail!("catalogue: no [[effect]] entries");
         };
@@ -155,18 +481,16 @@ impl Catalogue {
                     });
                 }
             }
-            if params.len() > 2 {
-                bail!("{}: at most 2 parameters", ctx());
-            }
             let signature = s(get(&t, "signature"), "signature")?;
             let names: Vec<String> = params.iter().map(|p| p.name.clone()).collect();
             let expr = Expr::parse(&signature, &VAR_NAMES, &consts, &names).with_context(ctx)?;
             let model_switch = s(get(&t, "model_switch"), "model_switch")?;
-            effects.push(Effect {
+            let effect = Effect {
                 layer: strs(get(&t, "layer"), "layer")?,
                 quantity: s(get(&t, "quantity"), "quantity")?,
                 explanatory: strs(get(&t, "explanatory"), "explanatory")?,
                 signature,
+                program: Program::compile(&expr),
                 expr,
                 params,
                 model_switch: (!model_switch.is_empty()).then_some(model_switch),
@@ -177,7 +501,12 @@ impl Catalogue {
                 )?,
                 physics: s(get(&t, "physics"), "physics")?,
                 id,
-            });
+            };
+            validate(&effect)?;
+            if effects.iter().any(|e| e.id() == effect.id) {
+                bail!("catalogue: duplicate effect id `{}`", effect.id);
+            }
+            effects.push(Arc::new(effect));
         }
         Ok(Catalogue {
             sensor,
@@ -201,29 +530,17 @@ mod tests {
             let c = Catalogue::builtin(kind).unwrap();
             assert!(c.effects.len() >= 7);
             for e in &c.effects {
-                if let Some(s) = &e.model_switch {
-                    assert!(
-                        known.contains(&s.as_str()),
-                        "{}: unknown model switch {s}",
-                        e.id
-                    );
+                if let Some(s) = e.model_switch() {
+                    assert!(known.contains(&s), "{}: unknown model switch {s}", e.id());
                 }
-                for other in &e.confusable_with {
-                    assert!(
-                        c.effects.iter().any(|o| &o.id == other),
-                        "{}: {other}",
-                        e.id
-                    );
+                for other in e.confusable_with() {
+                    assert!(c.get(other).is_some(), "{}: {other}", e.id());
                 }
             }
         }
         // DIVP signature: R⁻² instead of R⁻⁴ is −20 dB per decade with p0 = 2.
         let c = Catalogue::builtin(CampaignSensor::Radar).unwrap();
-        let e = c
-            .effects
-            .iter()
-            .find(|e| e.id == "radar.spreading_exponent")
-            .unwrap();
+        let e = c.get("radar.spreading_exponent").unwrap();
         let mut x = [0.0; super::super::NVARS];
         x[0] = 100.0;
         assert!((e.eval(&x, &[2.0]) + 20.0).abs() < 1e-9);

@@ -69,7 +69,7 @@ pub fn run(args: ConsistencyArgs) -> Result<()> {
     Ok(())
 }
 
-fn switches(args: &ConsistencyArgs) -> Result<osiris_models::effects::EffectSwitches> {
+pub(crate) fn switches(args: &ConsistencyArgs) -> Result<osiris_models::effects::EffectSwitches> {
     let known = osiris_models::effects::catalogue();
     let mut sw = BTreeMap::new();
     for (list, on) in [(&args.enable, true), (&args.disable, false)] {
@@ -96,7 +96,7 @@ pub fn run_with(args: &ConsistencyArgs, simulator: Option<&mut Simulator<'_>>) -
         eprintln!("warning: {w}");
     }
     if campaign.sensor.kind == CampaignSensor::Camera {
-        bail!("camera campaigns are not supported yet (radar and lidar are)");
+        return super::camera::run_with(args, &campaign);
     }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create `{}`", args.out.display()))?;
@@ -213,9 +213,20 @@ fn analyse(
     sim: &[osi3::SensorData],
     model: ModelInfo,
     args: &ConsistencyArgs,
-    mut warnings: Vec<String>,
+    warnings: Vec<String>,
 ) -> Result<Summary> {
     let paired = pairing::pair(campaign, views, meas, sim)?;
+    analyse_paired(campaign, paired, model, args, warnings)
+}
+
+/// Metrics, attribution and outputs of paired rows (also the camera branch, `camera.rs`).
+pub(crate) fn analyse_paired(
+    campaign: &Campaign,
+    paired: pairing::Paired,
+    model: ModelInfo,
+    args: &ConsistencyArgs,
+    mut warnings: Vec<String>,
+) -> Result<Summary> {
     warnings.extend(paired.warnings.iter().cloned());
     if paired.missing_meas_frames > 0 {
         warnings.push(format!(

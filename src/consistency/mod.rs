@@ -16,6 +16,8 @@
 //! * [`cli`]: `osiris consistency`.
 
 pub mod attribution;
+pub mod bench;
+pub mod camera;
 pub mod campaign;
 pub mod catalogue;
 pub mod cli;
@@ -26,6 +28,7 @@ pub mod pairing;
 pub mod report;
 pub mod simulate;
 pub mod truth;
+pub mod truth_camera;
 
 /// Names of the explanatory variables of a residual row (index = position in [`Row::x`]); the
 /// catalogue's signature expressions use these names.
@@ -80,6 +83,23 @@ pub mod quantity {
     pub const POINTS_ON_TARGET_PCT: &str = "points_on_target_pct";
     /// LiDAR points in depth gaps (no target id) per frame, count.
     pub const GAP_POINTS: &str = "gap_points";
+    /// Camera ROI mean, meas − sim, DN (attribution; a black-level offset is fitted). Rows carry
+    /// their standard error in `x[V_PRX]` ([`super::carries_row_sigma`]); see `camera.rs`.
+    pub const CAMERA_MEAN_DN: &str = "roi_mean_dn";
+    /// Camera ROI mean relative to the simulated signal above black, % (metrics; lit rows only).
+    pub const CAMERA_MEAN_PCT: &str = "roi_mean_pct";
+    /// Camera ROI variance (spatial per frame, temporal per frame pair), 100·ln(meas/sim)
+    /// ("log-percent", ≈ % for small differences; variance-stabilised).
+    pub const CAMERA_VARIANCE_PCT: &str = "roi_variance_pct";
+    /// Camera ROI variance per ROI × channel × kind (spatial / temporal), the frames pooled,
+    /// 100·(meas/sim − 1), % (metrics).
+    pub const CAMERA_VARIANCE_ROI_PCT: &str = "roi_variance_per_roi_pct";
+}
+
+/// Quantities whose rows carry their own standard error in `x[V_PRX]` (camera ROI statistics:
+/// no pooling of replicate scatter across ROIs of very different signal level).
+pub fn carries_row_sigma(q: &str) -> bool {
+    matches!(q, quantity::CAMERA_MEAN_DN | quantity::CAMERA_VARIANCE_PCT)
 }
 
 /// One paired residual: measured and simulated value of a quantity for one target in one frame.
@@ -120,6 +140,9 @@ pub fn tolerance_of(q: &str, t: &campaign::Tolerances) -> f64 {
         quantity::POINTS_ON_TARGET_PCT => t.points_on_target_pct,
         quantity::POINTS_LOG_RATIO => (1.0 + t.points_on_target_pct / 100.0).ln(),
         quantity::GAP_POINTS => t.gap_points,
+        quantity::CAMERA_MEAN_DN => t.roi_mean_dn,
+        quantity::CAMERA_MEAN_PCT => t.roi_mean_pct,
+        quantity::CAMERA_VARIANCE_PCT | quantity::CAMERA_VARIANCE_ROI_PCT => t.roi_variance_pct,
         _ => f64::INFINITY,
     }
 }
@@ -139,7 +162,9 @@ pub fn attribution_quantities(kind: campaign::CampaignSensor) -> &'static [&'sta
             quantity::POINTS_LOG_RATIO,
             quantity::GAP_POINTS,
         ],
-        campaign::CampaignSensor::Camera => &[],
+        campaign::CampaignSensor::Camera => {
+            &[quantity::CAMERA_MEAN_DN, quantity::CAMERA_VARIANCE_PCT]
+        }
     }
 }
 
@@ -158,7 +183,9 @@ pub fn metric_quantities(kind: campaign::CampaignSensor) -> &'static [&'static s
             quantity::POINTS_ON_TARGET_PCT,
             quantity::GAP_POINTS,
         ],
-        campaign::CampaignSensor::Camera => &[],
+        campaign::CampaignSensor::Camera => {
+            &[quantity::CAMERA_MEAN_PCT, quantity::CAMERA_VARIANCE_ROI_PCT]
+        }
     }
 }
 

@@ -1,7 +1,17 @@
 //! `summary.json` (schema `osiris.consistency/1`) and the self-contained `report.html` (inline SVG,
-//! no external JS or CSS): header, verdict table, where it fails (residual vs range with the
-//! tolerance band, binned heat map), distributions (ECDF overlay with AVM/DVM), attribution (ranked
-//! effects, tie groups, what-if), history trend.
+//! no JavaScript, no external CSS): header; verdict table (first failing metric outlined); where it
+//! fails (residual vs each `[bins] explanatory` variable of the campaign with the ± tolerance band
+//! and the bin means — bins from `[bins]` for range / azimuth / incidence (aspect) / reflectivity,
+//! eight equal bins otherwise; unknown names are listed and skipped, an empty list plots range —
+//! and heat maps of the mean residual with empty bins shown as coverage holes); distributions
+//! (ECDF overlay with AVM/DVM); attribution (ranked effects, identifiability heat map, tie groups,
+//! what-if before/after per station); before / after against the previous run of `--history`; the
+//! trend of the headline errors over the run registry, annotated with the effects enabled or
+//! accepted at each run; appendix.
+//!
+//! Checked by eye in headless Chromium (`chromium --headless --screenshot --window-size=1400,4000
+//! file://…/report.html`); the charts use "nice" 1-2-5 ticks, legends on a white background, and
+//! titles sized to their text.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -87,6 +97,23 @@ impl Summary {
     }
 }
 
+/// Axis tick label: integers without decimals, otherwise three significant decimals.
+fn fmt_tick(v: f64) -> String {
+    if v.is_finite() && (v - v.round()).abs() < 1e-9 * v.abs().max(1.0) && v.abs() < 1e9 {
+        format!("{:.0}", v.round())
+    } else {
+        fmt(v)
+    }
+}
+
+fn or_none(v: &[String]) -> String {
+    if v.is_empty() {
+        "none".into()
+    } else {
+        v.join(", ")
+    }
+}
+
 fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
@@ -106,7 +133,7 @@ fn fmt(v: f64) -> String {
     }
 }
 
-/// A simple SVG plot frame with linear axes.
+/// A simple SVG plot frame with linear axes and "nice" ticks (1, 2, 5 × 10ᵏ steps).
 struct Plot {
     w: f64,
     h: f64,
@@ -114,7 +141,41 @@ struct Plot {
     x1: f64,
     y0: f64,
     y1: f64,
+    /// Integer ticks on x only (run index).
+    int_x: bool,
     svg: String,
+}
+
+/// Plot area: left, top, right and bottom margins, px.
+const PL: f64 = 62.0;
+const PT: f64 = 30.0;
+const PR: f64 = 20.0;
+const PB: f64 = 40.0;
+
+/// A "nice" tick step near `span / n` (1, 2 or 5 × 10ᵏ).
+fn nice_step(span: f64, n: f64) -> f64 {
+    let raw = (span / n).max(1e-300);
+    let k = 10f64.powf(raw.log10().floor());
+    let m = raw / k;
+    k * if m <= 1.0 {
+        1.0
+    } else if m <= 2.0 {
+        2.0
+    } else if m <= 5.0 {
+        5.0
+    } else {
+        10.0
+    }
+}
+
+fn ticks(a: f64, b: f64, step: f64) -> Vec<f64> {
+    let mut out = Vec::new();
+    let mut t = (a / step).ceil() * step;
+    while t <= b + 1e-9 * step && out.len() < 50 {
+        out.push(if t.abs() < 1e-12 * step { 0.0 } else { t });
+        t += step;
+    }
+    out
 }
 
 impl Plot {
@@ -131,56 +192,88 @@ impl Plot {
         );
         let mut p = Plot {
             w: 520.0,
-            h: 300.0,
+            h: 310.0,
             x0,
             x1,
             y0,
             y1,
+            int_x: false,
             svg: String::new(),
         };
         let _ = write!(
             p.svg,
-            r##"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" class="plot"><rect x="60" y="20" width="{pw}" height="{ph}" fill="#fafafa" stroke="#999"/><text x="{cx}" y="14" text-anchor="middle" font-size="12">{t}</text><text x="{cx}" y="{xl}" text-anchor="middle" font-size="11">{xlab}</text><text x="12" y="{cy}" font-size="11" transform="rotate(-90 12 {cy})" text-anchor="middle">{ylab}</text>"##,
+            r##"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" class="plot"><rect x="{PL}" y="{PT}" width="{pw}" height="{ph}" fill="#fafafa" stroke="#999"/><text x="{cx}" y="16" text-anchor="middle" font-size="12">{t}</text><text x="{cx}" y="{xl}" text-anchor="middle" font-size="11">{xlab}</text><text x="12" y="{cy}" font-size="11" transform="rotate(-90 12 {cy})" text-anchor="middle">{ylab}</text>"##,
             w = p.w,
             h = p.h,
-            pw = p.w - 80.0,
-            ph = p.h - 60.0,
-            cx = p.w / 2.0,
-            cy = p.h / 2.0,
+            pw = p.w - PL - PR,
+            ph = p.h - PT - PB,
+            cx = (PL + p.w - PR) / 2.0,
+            cy = (PT + p.h - PB) / 2.0,
             xl = p.h - 6.0,
             t = esc(title),
             xlab = esc(xlabel),
             ylab = esc(ylabel),
         );
-        for i in 0..=4 {
-            let fx = x0 + (p.x1 - x0) * f64::from(i) / 4.0;
-            let fy = y0 + (p.y1 - y0) * f64::from(i) / 4.0;
-            let (px, py) = (p.px(fx), p.py(fy));
-            let _ = write!(
-                p.svg,
-                r##"<text x="{px}" y="{ty}" font-size="10" text-anchor="middle">{lx}</text><text x="56" y="{py}" font-size="10" text-anchor="end">{ly}</text>"##,
-                ty = p.h - 24.0,
-                lx = fmt(fx),
-                ly = fmt(fy),
-            );
-        }
         p
     }
+    /// Tick labels and grid lines (drawn by `finish`).
+    fn axes(&mut self) {
+        let xs = if self.int_x {
+            ticks(self.x0, self.x1, nice_step(self.x1 - self.x0, 5.0).max(1.0))
+        } else {
+            ticks(self.x0, self.x1, nice_step(self.x1 - self.x0, 5.0))
+        };
+        let ys = ticks(self.y0, self.y1, nice_step(self.y1 - self.y0, 5.0));
+        for x in xs {
+            let px = self.px(x);
+            let _ = write!(
+                self.svg,
+                r##"<line x1="{px:.1}" y1="{b:.1}" x2="{px:.1}" y2="{b2:.1}" stroke="#999"/><text x="{px:.1}" y="{ty}" font-size="10" text-anchor="middle">{l}</text>"##,
+                b = self.h - PB,
+                b2 = self.h - PB + 4.0,
+                ty = self.h - PB + 14.0,
+                l = fmt_tick(x),
+            );
+        }
+        for y in ys {
+            let py = self.py(y);
+            let _ = write!(
+                self.svg,
+                r##"<line x1="{a}" y1="{py:.1}" x2="{b}" y2="{py:.1}" stroke="#e4e4e4"/><text x="{tx}" y="{ly:.1}" font-size="10" text-anchor="end">{l}</text>"##,
+                a = PL,
+                b = self.w - PR,
+                tx = PL - 4.0,
+                ly = py + 3.5,
+                l = fmt_tick(y),
+            );
+        }
+    }
     fn px(&self, x: f64) -> f64 {
-        60.0 + (x - self.x0) / (self.x1 - self.x0) * (self.w - 80.0)
+        PL + (x - self.x0) / (self.x1 - self.x0) * (self.w - PL - PR)
     }
     fn py(&self, y: f64) -> f64 {
         let y = y.clamp(self.y0, self.y1);
-        20.0 + (1.0 - (y - self.y0) / (self.y1 - self.y0)) * (self.h - 60.0)
+        PT + (1.0 - (y - self.y0) / (self.y1 - self.y0)) * (self.h - PT - PB)
     }
     fn band(&mut self, lo: f64, hi: f64) {
         let (a, b) = (self.py(hi), self.py(lo));
         let _ = write!(
             self.svg,
-            r##"<rect x="60" y="{a}" width="{w}" height="{hh}" fill="#cfe8cf" opacity="0.6"/>"##,
-            w = self.w - 80.0,
+            r##"<rect x="{PL}" y="{a}" width="{w}" height="{hh}" fill="#cfe8cf" opacity="0.6"/>"##,
+            w = self.w - PL - PR,
             hh = (b - a).max(0.0)
         );
+    }
+    /// Hollow markers (a series drawn under another one stays visible).
+    fn rings(&mut self, pts: &[(f64, f64)], color: &str) {
+        for &(x, y) in pts {
+            let _ = write!(
+                self.svg,
+                r##"<circle cx="{:.1}" cy="{:.1}" r="3.5" fill="none" stroke="{color}" stroke-width="1"/>"##,
+                self.px(x),
+                self.py(y)
+            );
+        }
     }
     fn points(&mut self, pts: &[(f64, f64)], color: &str) {
         for &(x, y) in pts {
@@ -207,8 +300,17 @@ impl Plot {
         );
     }
     fn legend(&mut self, items: &[(&str, &str)]) {
+        let longest = items.iter().map(|i| i.0.chars().count()).max().unwrap_or(0) as f64;
+        let _ = write!(
+            self.svg,
+            r##"<rect x="{x}" y="{y}" width="{w}" height="{h}" fill="#fff" opacity="0.85" stroke="#ccc"/>"##,
+            x = self.w - 154.0,
+            y = PT + 4.0,
+            w = (22.0 + 5.6 * longest).min(150.0),
+            h = 14.0 * items.len() as f64 + 6.0
+        );
         for (i, (label, color)) in items.iter().enumerate() {
-            let y = 34.0 + 14.0 * i as f64;
+            let y = PT + 18.0 + 14.0 * i as f64;
             let _ = write!(
                 self.svg,
                 r##"<rect x="{x}" y="{y0}" width="10" height="10" fill="{color}"/><text x="{tx}" y="{ty}" font-size="10">{l}</text>"##,
@@ -220,7 +322,18 @@ impl Plot {
             );
         }
     }
+    /// A vertical annotation at `x` (reads bottom-up, inside the plot area).
+    fn note(&mut self, x: f64, text: &str) {
+        let px = self.px(x) + if x <= self.x0 { 10.0 } else { -4.0 };
+        let py = self.h - PB - 4.0;
+        let _ = write!(
+            self.svg,
+            r##"<text x="{px:.1}" y="{py:.1}" font-size="10" fill="#555" transform="rotate(-90 {px:.1} {py:.1})">{t}</text>"##,
+            t = esc(text)
+        );
+    }
     fn finish(mut self) -> String {
+        self.axes();
         self.svg.push_str("</svg>");
         self.svg
     }
@@ -235,13 +348,20 @@ fn range_of(v: impl Iterator<Item = f64>) -> (f64, f64) {
 
 fn heatmap(b: &BinnedMetric) -> String {
     let (nx, ny) = (b.x_edges.len() - 1, b.y_edges.len() - 1);
-    let (cw, ch) = (54.0, 22.0);
-    let (w, h) = (90.0 + cw * nx as f64, 50.0 + ch * ny as f64);
+    let (cw, ch) = (64.0, 22.0);
+    let title = format!(
+        "mean residual {} over {} × {}",
+        b.quantity, b.x_var, b.y_var
+    );
+    let (w, h) = (
+        (90.0 + cw * nx as f64).max(7.0 * title.chars().count() as f64),
+        64.0 + ch * ny as f64,
+    );
     let mut s = format!(
-        r##"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" class="plot"><text x="4" y="12" font-size="12">mean residual {q} over {xv} × {yv} (grey = empty bin / coverage hole)</text>"##,
-        q = esc(&b.quantity),
-        xv = esc(&b.x_var),
-        yv = esc(&b.y_var)
+        r##"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" class="plot"><text x="4" y="12" font-size="12">{t}</text><text x="4" y="{ny}" font-size="10" fill="#555">grey = empty bin (coverage hole); colour = mean / tolerance ({tol})</text>"##,
+        t = esc(&title),
+        ny = h - 4.0,
+        tol = fmt(b.tolerance),
     );
     for iy in 0..ny {
         for ix in 0..nx {
@@ -269,8 +389,8 @@ fn heatmap(b: &BinnedMetric) -> String {
             s,
             r##"<text x="76" y="{}" font-size="9" text-anchor="end">{}–{}</text>"##,
             20.0 + ch * (ny - 1 - iy) as f64 + 14.0,
-            fmt(b.y_edges[iy]),
-            fmt(b.y_edges[iy + 1])
+            fmt_tick(b.y_edges[iy]),
+            fmt_tick(b.y_edges[iy + 1])
         );
     }
     for ix in 0..nx {
@@ -279,8 +399,8 @@ fn heatmap(b: &BinnedMetric) -> String {
             r##"<text x="{}" y="{}" font-size="9" text-anchor="middle">{}–{}</text>"##,
             80.0 + cw * (ix as f64 + 0.5),
             20.0 + ch * ny as f64 + 12.0,
-            fmt(b.x_edges[ix]),
-            fmt(b.x_edges[ix + 1])
+            fmt_tick(b.x_edges[ix]),
+            fmt_tick(b.x_edges[ix + 1])
         );
     }
     s.push_str("</svg>");
@@ -292,10 +412,11 @@ fn identifiability(a: &QuantityAttribution) -> String {
     let n = a.candidates.len();
     let c = 26.0;
     let left = 210.0;
-    let (w, h) = (left + c * n as f64 + 10.0, 40.0 + c * n as f64);
+    let (w, h) = ((left + c * n as f64 + 10.0).max(560.0), 58.0 + c * n as f64);
     let mut s = format!(
-        r##"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" class="plot"><text x="4" y="14" font-size="12">identifiability on this design: |cos| of centred signatures ({q}); red ≥ 0.95 = not separable</text>"##,
-        q = esc(&a.quantity)
+        r##"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" class="plot"><text x="4" y="14" font-size="12">identifiability ({q}): |cos| of centred signatures on this design</text><text x="4" y="{ny}" font-size="10" fill="#555">red ≥ 0.95 = not separable; grey = no variation at the nominal parameters</text>"##,
+        q = esc(&a.quantity),
+        ny = h - 4.0,
     );
     for (i, name) in a.candidates.iter().enumerate() {
         let y = 30.0 + c * i as f64;
@@ -327,6 +448,73 @@ fn identifiability(a: &QuantityAttribution) -> String {
     }
     s.push_str("</svg>");
     s
+}
+
+/// The `[bins] explanatory` variables the report plots residuals against: (index in
+/// [`super::VAR_NAMES`], name); unknown names are skipped (and listed in the report), an empty
+/// list falls back to `range`.
+pub fn explanatory_vars(campaign: &Campaign) -> Vec<(usize, &'static str)> {
+    let mut out: Vec<(usize, &'static str)> = Vec::new();
+    for v in &campaign.bins.explanatory {
+        if let Some(i) = super::VAR_NAMES.iter().position(|n| n == v)
+            && !out.iter().any(|(j, _)| *j == i)
+        {
+            out.push((i, super::VAR_NAMES[i]));
+        }
+    }
+    if out.is_empty() {
+        out.push((super::V_RANGE, "range"));
+    }
+    out
+}
+
+fn var_unit(name: &str) -> &'static str {
+    match name {
+        "range" | "edge" | "height" | "width" | "fog_vis" | "mount_h" => "m",
+        "azimuth" | "elevation" | "aspect" => "deg",
+        "area" => "m²",
+        "reflectivity" => "%",
+        "rain" => "mm/h",
+        "prx" => "dB",
+        _ => "-",
+    }
+}
+
+/// Bin edges of a variable: the campaign's `[bins]` edges where it has them, else 8 equal bins.
+fn bin_edges(campaign: &Campaign, name: &str, x0: f64, x1: f64) -> Vec<f64> {
+    let b = &campaign.bins;
+    match name {
+        "range" => b.range_m.clone(),
+        "azimuth" => b.azimuth_deg.clone(),
+        "aspect" => b.incidence_deg.clone(),
+        "reflectivity" => b.reflectivity_pct.clone(),
+        _ if x1 > x0 => (0..=8)
+            .map(|i| x0 + (x1 - x0) * f64::from(i) / 8.0)
+            .collect(),
+        _ => vec![x0 - 0.5, x0 + 0.5],
+    }
+}
+
+/// Mean residual per bin at the bin's mean x (empty bins skipped).
+fn bin_means(pts: &[(f64, f64)], edges: &[f64]) -> Vec<(f64, f64)> {
+    let last = edges.len().saturating_sub(2);
+    edges
+        .windows(2)
+        .enumerate()
+        .filter_map(|(i, w)| {
+            let sel: Vec<&(f64, f64)> = pts
+                .iter()
+                .filter(|p| p.0 >= w[0] && (p.0 < w[1] || (i == last && p.0 <= w[1])))
+                .collect();
+            (!sel.is_empty()).then(|| {
+                let n = sel.len() as f64;
+                (
+                    sel.iter().map(|p| p.0).sum::<f64>() / n,
+                    sel.iter().map(|p| p.1).sum::<f64>() / n,
+                )
+            })
+        })
+        .collect()
 }
 
 /// Renders the self-contained HTML report.
@@ -392,31 +580,61 @@ pub fn html(
         );
     }
     h.push_str("</table>");
-    // Where it fails.
+    // Where it fails: residual vs each `[bins] explanatory` variable, tolerance band, bin means.
     h.push_str("<h2>Where it fails</h2>");
-    for q in super::metric_quantities(campaign.sensor.kind) {
-        let pts: Vec<(f64, f64)> = rows
-            .iter()
-            .filter(|r| r.quantity == *q)
-            .map(|r| (r.x[super::V_RANGE], r.resid()))
-            .collect();
-        if pts.is_empty() {
-            continue;
-        }
-        let tol = super::tolerance_of(q, &campaign.tolerance);
-        let (x0, x1) = range_of(pts.iter().map(|p| p.0));
-        let (y0, y1) = range_of(pts.iter().map(|p| p.1));
-        let ym = y0.abs().max(y1.abs()).max(tol * 1.2);
-        let mut p = Plot::new(
-            &format!("residual {q} vs range"),
-            "range [m]",
-            &format!("meas − sim [{}]", super::metrics::unit_of(q)),
-            (0.0f64.min(x0), x1),
-            (-ym, ym),
+    let vars = explanatory_vars(campaign);
+    let unknown: Vec<&String> = campaign
+        .bins
+        .explanatory
+        .iter()
+        .filter(|v| !super::VAR_NAMES.contains(&v.as_str()))
+        .collect();
+    if !unknown.is_empty() {
+        let _ = write!(
+            h,
+            "<p>[bins] explanatory: unknown variable(s) {} ignored (known: {}).</p>",
+            esc(&format!("{unknown:?}")),
+            esc(&super::VAR_NAMES.join(", "))
         );
-        p.band(-tol, tol);
-        p.points(&pts, "#1565c0");
-        h.push_str(&p.finish());
+    }
+    for q in super::metric_quantities(campaign.sensor.kind) {
+        let tol = super::tolerance_of(q, &campaign.tolerance);
+        for &(vi, name) in &vars {
+            let pts: Vec<(f64, f64)> = rows
+                .iter()
+                .filter(|r| r.quantity == *q)
+                .map(|r| (r.x[vi], r.resid()))
+                .filter(|p| p.0.is_finite() && p.1.is_finite())
+                .collect();
+            if pts.is_empty() {
+                continue;
+            }
+            let (x0, x1) = range_of(pts.iter().map(|p| p.0));
+            let (y0, y1) = range_of(pts.iter().map(|p| p.1));
+            let ym = y0.abs().max(y1.abs()).max(tol * 1.2);
+            let lo = if vi == super::V_RANGE {
+                0.0f64.min(x0)
+            } else {
+                x0
+            };
+            let mut p = Plot::new(
+                &format!("residual {q} vs {name}"),
+                &format!("{name} [{}]", var_unit(name)),
+                &format!("meas − sim [{}]", super::metrics::unit_of(q)),
+                (lo, x1),
+                (-ym, ym),
+            );
+            p.band(-tol, tol);
+            p.points(&pts, "#1565c0");
+            let means = bin_means(&pts, &bin_edges(campaign, name, x0, x1));
+            p.line(&means, "#c62828");
+            p.legend(&[
+                ("residual", "#1565c0"),
+                ("bin mean", "#c62828"),
+                ("± tolerance", "#cfe8cf"),
+            ]);
+            h.push_str(&p.finish());
+        }
     }
     for b in &summary.binned {
         h.push_str(&heatmap(b));
@@ -473,38 +691,42 @@ pub fn html(
             fmt(a.consistent_threshold),
             fmt(a.noise.inflation),
         );
-        h.push_str("<table><tr><th>effect</th><th>accepted</th><th>ΔBIC</th><th>weight</th><th>CV gain</th><th>explained</th><th>max contribution</th><th>θ ± σ</th><th>tie group</th><th>model switch</th></tr>");
-        for e in &a.effects {
-            let params: Vec<String> = e
-                .params
-                .iter()
-                .map(|p| {
-                    format!(
-                        "{} = {} ± {}{}",
-                        p.name,
-                        fmt(p.value),
-                        fmt(p.sigma),
-                        if p.at_bound { " (bound)" } else { "" }
-                    )
-                })
-                .collect();
-            let _ = write!(
-                h,
-                "<tr><td>{}</td><td class=\"{}\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-                esc(&e.id),
-                if e.accepted { "pass" } else { "" },
-                e.accepted,
-                fmt(e.delta_bic),
-                fmt(e.bic_weight),
-                e.cv_gain.map(fmt).unwrap_or_else(|| "—".into()),
-                fmt(e.explained_share),
-                fmt(e.max_contribution),
-                esc(&params.join(", ")),
-                esc(e.tie_group.as_deref().unwrap_or("")),
-                esc(e.model_switch.as_deref().unwrap_or("—")),
-            );
+        if a.effects.is_empty() {
+            h.push_str("<p>No catalogue effect acts on this quantity.</p>");
+        } else {
+            h.push_str("<table><tr><th>effect</th><th>accepted</th><th>ΔBIC</th><th>weight</th><th>CV gain</th><th>explained</th><th>max contribution</th><th>θ ± σ</th><th>tie group</th><th>model switch</th></tr>");
+            for e in &a.effects {
+                let params: Vec<String> = e
+                    .params
+                    .iter()
+                    .map(|p| {
+                        format!(
+                            "{} = {} ± {}{}",
+                            p.name,
+                            fmt(p.value),
+                            fmt(p.sigma),
+                            if p.at_bound { " (bound)" } else { "" }
+                        )
+                    })
+                    .collect();
+                let _ = write!(
+                    h,
+                    "<tr><td>{}</td><td class=\"{}\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                    esc(&e.id),
+                    if e.accepted { "pass" } else { "" },
+                    e.accepted,
+                    fmt(e.delta_bic),
+                    fmt(e.bic_weight),
+                    e.cv_gain.map(fmt).unwrap_or_else(|| "—".into()),
+                    fmt(e.explained_share),
+                    fmt(e.max_contribution),
+                    esc(&params.join(", ")),
+                    esc(e.tie_group.as_deref().unwrap_or("")),
+                    esc(e.model_switch.as_deref().unwrap_or("—")),
+                );
+            }
+            h.push_str("</table>");
         }
-        h.push_str("</table>");
         if a.candidates.len() > 1 {
             h.push_str(&identifiability(a));
         }
@@ -531,17 +753,28 @@ pub fn html(
             let ym = y0.abs().max(y1.abs()).max(a.tolerance * 0.2);
             let mut p = Plot::new(
                 &format!(
-                    "what-if {}: station residual before / after the accepted effects",
-                    a.quantity
+                    "what-if {}: station residual before / after {}",
+                    a.quantity,
+                    if a.accepted.is_empty() {
+                        "(no effect accepted)".to_owned()
+                    } else {
+                        a.accepted.join(" + ")
+                    }
                 ),
                 "range [m]",
-                "residual − offset",
+                &format!(
+                    "residual − offset [{}]",
+                    super::metrics::unit_of(&a.quantity)
+                ),
                 (0.0f64.min(x0), x1),
                 (-ym, ym),
             );
-            p.points(&before, "#c62828");
+            if a.tolerance.is_finite() {
+                p.band(-a.tolerance, a.tolerance);
+            }
+            p.rings(&before, "#c62828");
             p.points(&after, "#2e7d32");
-            p.legend(&[("before", "#c62828"), ("after", "#2e7d32")]);
+            p.legend(&[("before (ring)", "#c62828"), ("after (dot)", "#2e7d32")]);
             h.push_str(&p.finish());
         }
         if let Some(d) = &a.diagnostics {
@@ -566,6 +799,43 @@ pub fn html(
             h.push_str("</table>");
         }
     }
+    // Before / after: this run against the previous one of the registry.
+    if let Some(prev) = summary.history.last() {
+        let _ = write!(
+            h,
+            "<h2>Before / after</h2><p>previous run <b>{}</b> ({}; enabled: {}; accepted: {}) → this run <b>{}</b> ({}; enabled: {}; accepted: {})</p><table><tr><th>quantity</th><th>before</th><th>after</th><th>Δ</th><th>after / tolerance</th></tr>",
+            esc(&prev.run_id),
+            esc(&prev.status),
+            esc(&or_none(&prev.enabled)),
+            esc(&or_none(&prev.accepted)),
+            esc(&summary.run.id),
+            esc(&summary.status),
+            esc(&or_none(&summary.model.enabled)),
+            esc(&or_none(&summary.accepted())),
+        );
+        for (q, after) in &summary.error {
+            let tol = super::tolerance_of(q, &campaign.tolerance);
+            let before = prev.error.get(q).copied();
+            let delta = before.map(|b| after - b);
+            let _ = write!(
+                h,
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td class=\"{}\">{}</td><td>{}</td></tr>",
+                esc(q),
+                before.map(fmt).unwrap_or_else(|| "—".into()),
+                fmt(*after),
+                match delta {
+                    Some(d) if d < 0.0 => "pass",
+                    Some(d) if d > 0.0 => "fail",
+                    _ => "",
+                },
+                delta
+                    .map(|d| format!("{}{}", if d > 0.0 { "+" } else { "" }, fmt(d)))
+                    .unwrap_or_else(|| "—".into()),
+                fmt(after / tol),
+            );
+        }
+        h.push_str("</table>");
+    }
     // History.
     if !summary.history.is_empty() {
         h.push_str("<h2>Trend</h2><table><tr><th>run</th><th>status</th><th>enabled</th><th>accepted</th><th>errors</th></tr>");
@@ -585,7 +855,20 @@ pub fn html(
                 esc(&errs.join("; "))
             );
         }
-        h.push_str("</table>");
+        let errs: Vec<String> = summary
+            .error
+            .iter()
+            .map(|(k, v)| format!("{k} {}", fmt(*v)))
+            .collect();
+        let _ = write!(
+            h,
+            "<tr style=\"font-weight:bold\"><td>{} (this run)</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr></table>",
+            esc(&summary.run.id),
+            esc(&summary.status),
+            esc(&summary.model.enabled.join(", ")),
+            esc(&summary.accepted().join(", ")),
+            esc(&errs.join("; "))
+        );
         let keys: Vec<String> = summary.error.keys().cloned().collect();
         let colors = ["#1565c0", "#c62828", "#2e7d32", "#6a1b9a", "#ef6c00"];
         // Previous runs, then this one.
@@ -615,11 +898,12 @@ pub fn html(
             .fold(1.2, f64::max);
         let mut p = Plot::new(
             "headline RMS / tolerance per run",
-            "run",
+            "run (0 = oldest; annotations: effects enabled or accepted since the run before)",
             "RMS / tolerance",
             (0.0, (n - 1.0).max(1.0)),
             (0.0, ymax),
         );
+        p.int_x = true;
         p.band(0.0, 1.0);
         let mut legend = Vec::new();
         for (i, (k, pts)) in series.iter().enumerate() {
@@ -627,13 +911,43 @@ pub fn html(
             p.points(pts, colors[i % colors.len()]);
             legend.push((k.as_str(), colors[i % colors.len()]));
         }
+        // Annotate each run with what changed: effects enabled / accepted since the run before.
+        let mut prev_set: Vec<String> = Vec::new();
+        let all: Vec<(String, Vec<String>)> = summary
+            .history
+            .iter()
+            .map(|e| {
+                (
+                    e.run_id.clone(),
+                    e.enabled.iter().chain(&e.accepted).cloned().collect(),
+                )
+            })
+            .chain([(
+                summary.run.id.clone(),
+                summary
+                    .model
+                    .enabled
+                    .iter()
+                    .cloned()
+                    .chain(summary.accepted())
+                    .collect(),
+            )])
+            .collect();
+        for (i, (_, set)) in all.iter().enumerate() {
+            let new: Vec<&String> = set.iter().filter(|e| !prev_set.contains(e)).collect();
+            if !new.is_empty() {
+                let txt: Vec<&str> = new.iter().map(|s| s.as_str()).collect();
+                p.note(i as f64, &format!("+{}", txt.join(", +")));
+            }
+            prev_set = set.clone();
+        }
         p.legend(&legend);
         h.push_str(&p.finish());
     }
     // Appendix.
     let _ = write!(
         h,
-        "<h2>Appendix</h2><p>catalogue version {}; tolerances {}</p>",
+        "<h2>Appendix</h2><p>catalogue version {}; tolerances <code style=\"word-break:break-all\">{}</code></p>",
         esc(&summary.catalogue_version),
         esc(&serde_json::to_string(&summary.tolerance).unwrap_or_default())
     );

@@ -799,7 +799,7 @@ def test_simulate_fmu_without_inputs(fmu_path):
 # The physical models
 
 
-PHYSICAL_KINDS = ("radar", "lidar")
+PHYSICAL_KINDS = ("camera", "radar", "lidar")
 
 
 def test_default_mode(model_description, kind):
@@ -808,9 +808,9 @@ def test_default_mode(model_description, kind):
 
 
 def test_physical_model_in_fmpy(kind, model_description, unzip_dir, perception_class):
-    """The physical radar / LiDAR model in FMPy: every step OK, SensorData decodes with the official
-    bindings (no unknown fields), feature-data detections on the car ahead and none on the car out of
-    range, raw perception output in the extension, and the car ahead recognised and tracked."""
+    """The physical camera / radar / LiDAR model in FMPy: every step OK, SensorData decodes with the
+    official bindings (no unknown fields), feature-data detections on the car ahead and none on the car
+    out of range, raw perception output in the extension, and the car ahead recognised (and tracked)."""
     if kind not in PHYSICAL_KINDS:
         pytest.skip(f"no physical {kind} model yet")
     slave = OsmpSlave(model_description, unzip_dir, f"{kind}_physical")
@@ -841,7 +841,10 @@ def test_physical_model_in_fmpy(kind, model_description, unzip_dir, perception_c
             # car mesh is not a box, and the LiDAR sees parts of it past the front car's roof.)
             p = perception_class.FromString(slave.get_binary("PerceptionDataOut"))
             assert p.model_mode == "physical"
-            if kind == "lidar":
+            if kind == "camera":
+                assert p.camera.image and all(img.width_px > 0 and img.data for img in p.camera.image)
+                assert any(o.object_id == FRONT_ID and o.type_code == 2 for o in p.camera.object)
+            elif kind == "lidar":
                 n = len(p.lidar.x_m)
                 assert n > 100 and len(p.lidar.intensity) == n and len(p.lidar.timestamp_ns) == n
                 assert p.lidar.pulses_fired >= n // 2

@@ -11,7 +11,10 @@ pub static DESCRIPTOR: FmuDescriptor = FmuDescriptor::new(
     "osiris camera",
     "osiris_camera",
     "osiris camera sensor model (OSI 3.8.0 SensorView in, SensorData out, OSMP 1.6.0; raw perception \
-     output in PerceptionDataOut). This version runs the ideal object-level model only: ground-truth \
-     objects inside the field of view and range, occlusion by other objects, in the sensor frame. \
-     The physics-based camera model has not landed yet; mode=physical fails at initialization.",
+     output in PerceptionDataOut). mode=physical (default): spectral ray-traced rendering (SPCTRAL2 \
+     sun and sky, vehicle lamps with light-distribution tables, shadows, glass, fog), lens \
+     (Brown-Conrady distortion, vignetting, PSF, sun flare), EMVA 1288 pixel model with \
+     multi-exposure HDR and PWL companding, rolling shutter, motion blur, LED flicker, ISP to 8-bit \
+     sRGB, and recognition of objects from the rendered view. mode=ideal: the ideal object-level \
+     reference model.",
 );

@@ -26,6 +26,7 @@ pub mod bench;
 pub mod hdr;
 pub mod isp;
 pub mod lens;
+pub mod light;
 pub mod pixel;
 pub mod render;
 pub mod spectral;
@@ -137,7 +138,7 @@ pub struct PwmSource {
 impl PwmSource {
     /// Fraction of `[t0_s, t0_s + exposure_s]` during which the source is on.
     pub fn on_fraction(&self, t0_s: f64, exposure_s: f64) -> f64 {
-        if !(self.frequency_hz > 0.0) || self.duty >= 1.0 {
+        if self.frequency_hz.is_nan() || self.frequency_hz <= 0.0 || self.duty >= 1.0 {
             return 1.0;
         }
         let period = 1.0 / self.frequency_hz;

@@ -1,38 +1,365 @@
 //! EMVA 1288 pixel model: photo-electrons → digital numbers with shot noise, dark current, read
 //! noise, DSNU, PRNU, full well, conversion gain, ADC; LED flicker; auto exposure.
 //!
-//! (Contract stub: the pixel helper replaces the body; the signatures are fixed.)
+//! # Signal chain of one pixel (EMVA 1288 Release 4.0 linear model, physics.md §3.1)
+//!
+//! For pixel `i` of CFA channel `c`, capture with exposure time `t`, photodiode sensitivity `s`
+//! (1 = large PD), conversion gain `K` [DN/e⁻], analog gain `g`:
+//!
+//! 1. mean photo-electrons `μ_e = r_c,i · t · s · (1 + p_i)` with `r` the generation rate [e⁻/s]
+//!    from the lens and `p_i` the PRNU gain map (`camera.prnu`), plus the LED-flicker pixels
+//!    `(v/d) · f_on(t₀,row, t) · t · s · (1 + p_i)` with `v` the time-averaged rate, `d` the duty and
+//!    `f_on` the on fraction of the row's window ([`super::PwmSource::on_fraction`]);
+//! 2. mean dark electrons `μ_d = I_d(T) · t`, `I_d(T) = I_ref · 2^((T − T_ref)/T_2)`
+//!    (`camera.dark_current`; doubling every T_2 ≈ 6–8 K);
+//! 3. electrons `n ~ Poisson(μ_e + μ_d)` (`camera.shot_noise`; off: `n = μ_e + μ_d`), a normal
+//!    approximation above 20 e⁻;
+//! 4. `n ← min(n, full well)` (`camera.saturation`);
+//! 5. `+ o_i` the DSNU offset map [e⁻] (`camera.dsnu`), `+ σ_r · N(0,1)` (`camera.read_noise`);
+//! 6. `y = round(K·g·n + black level)`, clipped to `[0, 2^bits − 1]` (the top clip is part of
+//!    `camera.saturation`); rounding adds the quantisation noise σ_q² = 1/12 DN².
+//!
+//! The fixed-pattern maps (DSNU, PRNU) are drawn once from the model seed. The temporal noise of
+//! each row comes from its own generator seeded from the capture's noise seed and the row index,
+//! so the result does not depend on the thread schedule. Photon shot noise is drawn from a
+//! generator keyed by the noise seed *without its top byte* (the capture index in the sensor step)
+//! and the photodiode's integration window, so two reads of the same charge (IMX490 large PD at
+//! high and low conversion gain) share their shot noise, as in the real pixel.
 
+use rand::rngs::SmallRng;
+use rand::{Rng, SeedableRng};
+use rand_distr::StandardNormal;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{Cfa, ChannelImage, Flicker, RawImage, ShutterTiming};
+use super::{Cfa, ChannelImage, Flicker, GREEN, RawImage, ShutterTiming};
 use crate::effects::{EffectInfo, Effects};
 use crate::sensor::ModelError;
 
-/// Pixel effects (`camera.shot_noise`, `camera.read_noise`, `camera.dark_current`, `camera.dsnu`,
-/// `camera.prnu`, `camera.saturation`, `camera.led_flicker`).
-pub const EFFECTS: &[EffectInfo] = &[];
+/// Photon shot noise.
+pub const SHOT_NOISE: EffectInfo = EffectInfo {
+    name: "camera.shot_noise",
+    default_on: true,
+    summary: "photon shot noise: n ~ Poisson(μ_e + μ_d) electrons (σ_e² = μ_e), normal approximation above 20 e⁻",
+    source: "EMVA 1288 Release 4.0 (2021) linear model, σ_e² = μ_e (physics.md §3.1)",
+};
 
-/// Pixel parameters (`"pixel"` key of the camera config).
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PixelConfig {}
+/// Read (floor) noise of the readout chain.
+pub const READ_NOISE: EffectInfo = EffectInfo {
+    name: "camera.read_noise",
+    default_on: true,
+    summary: "read noise: + σ_r·N(0,1) electrons per read (σ_d of EMVA 1288; σ_y² = K²(σ_d² + σ_e²) + 1/12)",
+    source: "EMVA 1288 Release 4.0 (2021) (physics.md §3.1); IMX490 HCG 0.83 e⁻ / LCG 3.05 e⁻ (ISETCam sensorCreateIMX490.m, §3.3)",
+};
+
+/// Dark current with its temperature dependence and shot noise.
+pub const DARK_CURRENT: EffectInfo = EffectInfo {
+    name: "camera.dark_current",
+    default_on: true,
+    summary: "dark signal: μ_d = I_ref·2^((T − T_ref)/T_2)·t_exp electrons, Poisson distributed with the photo-electrons",
+    source: "EMVA 1288 Release 4.0 (2021) μ_d = μ_d,0 + μ_I·t_exp, doubling every ≈ 6–8 K (physics.md §3.1); IMX490 25.6 e⁻/s (ISETCam)",
+};
+
+/// Dark-signal non-uniformity: a fixed offset map.
+pub const DSNU: EffectInfo = EffectInfo {
+    name: "camera.dsnu",
+    default_on: true,
+    summary: "DSNU: fixed per-pixel offset o_i ~ N(0, DSNU²) electrons, drawn once from the seed",
+    source: "EMVA 1288 Release 4.0 (2021) DSNU = s_y,dark/K (physics.md §3.1)",
+};
+
+/// Photo-response non-uniformity: a fixed gain map.
+pub const PRNU: EffectInfo = EffectInfo {
+    name: "camera.prnu",
+    default_on: true,
+    summary: "PRNU: fixed per-pixel gain 1 + p_i, p_i ~ N(0, PRNU²), on the photo-electrons, drawn once from the seed",
+    source: "EMVA 1288 Release 4.0 (2021) PRNU = √(s_y,50² − s_y,dark²)/(μ_y,50 − μ_y,dark) (physics.md §3.1)",
+};
+
+/// Full-well and ADC saturation.
+pub const SATURATION: EffectInfo = EffectInfo {
+    name: "camera.saturation",
+    default_on: true,
+    summary: "saturation: n ← min(n, full well), y ← min(y, 2^bits − 1) (off: linear beyond both)",
+    source: "EMVA 1288 Release 4.0 (2021) saturation capacity (physics.md §3.1); IMX490 full wells 22 000 / 7 900 e⁻ (ISETCam, §3.3)",
+};
+
+/// Pixel effects (`camera.shot_noise`, `camera.read_noise`, `camera.dark_current`, `camera.dsnu`,
+/// `camera.prnu`, `camera.saturation`; `camera.led_flicker` is declared by the renderer, which
+/// splits the LED pixels out: this model integrates whatever [`Flicker`] samples it is given).
+pub const EFFECTS: &[EffectInfo] = &[SHOT_NOISE, READ_NOISE, DARK_CURRENT, DSNU, PRNU, SATURATION];
+
+/// Poisson means below this are drawn exactly; above, `μ + √μ·N(0,1)`.
+const POISSON_EXACT_BELOW: f64 = 20.0;
+
+/// Pixel parameters (`"pixel"` key of the camera config). `Default` is the ISX019-class preset.
+///
+/// The conversion gains are system gains in DN/e⁻ at unity analog gain. From a data sheet's
+/// µV/e⁻: `K = CG[V/e⁻] · 2^bits / V_adc,full-scale`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PixelConfig {
+    /// Colour-filter array layout.
+    pub cfa: Cfa,
+    /// Full-well (saturation) capacity of the (large) photodiode, e⁻.
+    pub full_well_e: f64,
+    /// System gain K of the main (high-conversion-gain) readout at unity analog gain, DN/e⁻.
+    pub conversion_gain_dn_per_e: f64,
+    /// Read noise of the main readout, e⁻ rms.
+    pub read_noise_e: f64,
+    /// Dark current of the (large) photodiode at `dark_reference_temperature_c`, e⁻/s.
+    pub dark_current_e_per_s: f64,
+    /// Reference die temperature of the dark currents, °C.
+    pub dark_reference_temperature_c: f64,
+    /// Temperature step that doubles the dark current, K (EMVA 1288: ≈ 6–8 K).
+    pub dark_doubling_k: f64,
+    /// Dark-signal non-uniformity, e⁻ rms (spatial).
+    pub dsnu_e: f64,
+    /// Photo-response non-uniformity, % rms (spatial).
+    pub prnu_percent: f64,
+    /// Black level (offset before the ADC), DN.
+    pub black_level_dn: f64,
+    /// ADC resolution, bits (8–16).
+    pub adc_bits: u32,
+    /// Analog gain before the ADC (linear, ≥ 1).
+    pub analog_gain: f64,
+    /// Rolling-shutter line time, s (absent: the readout of all rows takes `readout_fraction` of
+    /// the frame cycle).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub row_time_s: Option<f64>,
+    /// Fraction of the frame cycle the readout of all rows takes when `row_time_s` is absent
+    /// (guessed: 0.9, i.e. 10 % vertical blanking).
+    pub readout_fraction: f64,
+    /// Shortest exposure time auto exposure may choose, s.
+    pub min_exposure_s: f64,
+    /// Longest exposure time auto exposure may choose, s.
+    pub max_exposure_s: f64,
+    /// Auto-exposure target: log-average green signal as a fraction of the saturation signal
+    /// (default 10/78 ≈ 0.128, the mid-grey/saturation ratio of ISO 12232 saturation-based speed).
+    pub ae_target_fraction: f64,
+    /// Split pixel: system gain of the low-conversion-gain read of the large PD, DN/e⁻.
+    pub lcg_conversion_gain_dn_per_e: f64,
+    /// Split pixel: read noise of the low-conversion-gain read, e⁻ rms.
+    pub lcg_read_noise_e: f64,
+    /// Split pixel: sensitivity of the small PD relative to the large one.
+    pub small_pd_relative_sensitivity: f64,
+    /// Split pixel: full well of the small PD, e⁻.
+    pub small_pd_full_well_e: f64,
+    /// Split pixel: system gain of the small-PD read, DN/e⁻.
+    pub small_pd_conversion_gain_dn_per_e: f64,
+    /// Split pixel: read noise of the small-PD read, e⁻ rms.
+    pub small_pd_read_noise_e: f64,
+    /// Split pixel: dark current of the small PD at the reference temperature, e⁻/s.
+    pub small_pd_dark_current_e_per_s: f64,
+}
+
+impl Default for PixelConfig {
+    fn default() -> Self {
+        PixelConfig::isx019()
+    }
+}
+
+fn cfg_err(key: &str, what: &str, got: impl std::fmt::Display) -> ModelError {
+    ModelError::Config(format!("`camera.pixel.{key}` must be {what}, got {got}"))
+}
 
 impl PixelConfig {
+    /// ISX019-class (DOL HDR, 3 exposures, 12-bit ADC). Sony publishes no EMVA data for it; all
+    /// values are **guessed** typical automotive BSI values: full well 10 000 e⁻, K = 0.403 DN/e⁻
+    /// (full well = ADC range above a 64 DN black level), read noise 2.5 e⁻, dark current
+    /// 25.6 e⁻/s at 25 °C (the IMX490 figure of ISETCam), doubling 6.5 K, DSNU 1 e⁻, PRNU 1 %,
+    /// exposure 10 µs … 33 ms (one 30 fps frame). The split-pixel fields carry the IMX490 values.
+    pub fn isx019() -> PixelConfig {
+        PixelConfig {
+            cfa: Cfa::Rggb,
+            full_well_e: 10_000.0,
+            conversion_gain_dn_per_e: 0.403,
+            read_noise_e: 2.5,
+            dark_current_e_per_s: 25.6,
+            dark_reference_temperature_c: 25.0,
+            dark_doubling_k: 6.5,
+            dsnu_e: 1.0,
+            prnu_percent: 1.0,
+            black_level_dn: 64.0,
+            adc_bits: 12,
+            analog_gain: 1.0,
+            row_time_s: None,
+            readout_fraction: 0.9,
+            min_exposure_s: 10e-6,
+            max_exposure_s: 0.033,
+            ae_target_fraction: 10.0 / 78.0,
+            lcg_conversion_gain_dn_per_e: 0.1832,
+            lcg_read_noise_e: 3.05,
+            small_pd_relative_sensitivity: 0.1,
+            small_pd_full_well_e: 7_900.0,
+            small_pd_conversion_gain_dn_per_e: 0.1832,
+            small_pd_read_noise_e: 2.96,
+            small_pd_dark_current_e_per_s: 4.2,
+        }
+    }
+
+    /// IMX490-class split pixel (ISETCam `sensorCreateIMX490.m` after Solhusvik et al., IISW 2019,
+    /// physics.md §3.3): large PD full well 22 000 e⁻, HCG 200 µV/e⁻ (0.83 e⁻), LCG 49 µV/e⁻
+    /// (3.05 e⁻), dark 25.6 e⁻/s; small PD relative QE 0.1, full well 7 900 e⁻, 2.96 e⁻ (LCG
+    /// read), dark 4.2 e⁻/s. ADC full scale (**guessed**) such that the LCG read of a full large
+    /// PD fills the 12-bit range above the 64 DN black level: K_LCG = 4031/22 000 = 0.1832 DN/e⁻,
+    /// K_HCG = K_LCG·200/49 = 0.748 DN/e⁻; the small PD is read at LCG. Minimum exposure
+    /// 86.128 µs (LUCID tech brief); maximum 33 ms (guessed, one 30 fps frame; the sensor allows 5 s).
+    /// DSNU, PRNU, doubling temperature and reference temperature are guessed as for the ISX019.
+    pub fn imx490() -> PixelConfig {
+        PixelConfig {
+            full_well_e: 22_000.0,
+            conversion_gain_dn_per_e: 0.1832 * 200.0 / 49.0,
+            read_noise_e: 0.83,
+            min_exposure_s: 86.128e-6,
+            ..PixelConfig::isx019()
+        }
+    }
+
     /// The defaults of a sensor preset.
     pub fn for_preset(preset: super::CameraPreset) -> PixelConfig {
-        let _ = preset;
-        PixelConfig::default()
+        match preset {
+            super::CameraPreset::Isx019 => PixelConfig::isx019(),
+            super::CameraPreset::Imx490 => PixelConfig::imx490(),
+        }
     }
 
     pub fn validate(&self) -> Result<(), ModelError> {
+        let positive = [
+            ("full_well_e", self.full_well_e),
+            ("conversion_gain_dn_per_e", self.conversion_gain_dn_per_e),
+            ("dark_doubling_k", self.dark_doubling_k),
+            ("min_exposure_s", self.min_exposure_s),
+            ("max_exposure_s", self.max_exposure_s),
+            (
+                "lcg_conversion_gain_dn_per_e",
+                self.lcg_conversion_gain_dn_per_e,
+            ),
+            (
+                "small_pd_relative_sensitivity",
+                self.small_pd_relative_sensitivity,
+            ),
+            ("small_pd_full_well_e", self.small_pd_full_well_e),
+            (
+                "small_pd_conversion_gain_dn_per_e",
+                self.small_pd_conversion_gain_dn_per_e,
+            ),
+        ];
+        for (key, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(cfg_err(key, "finite and > 0", v));
+            }
+        }
+        let non_negative = [
+            ("read_noise_e", self.read_noise_e),
+            ("dark_current_e_per_s", self.dark_current_e_per_s),
+            ("dsnu_e", self.dsnu_e),
+            ("prnu_percent", self.prnu_percent),
+            ("black_level_dn", self.black_level_dn),
+            ("lcg_read_noise_e", self.lcg_read_noise_e),
+            ("small_pd_read_noise_e", self.small_pd_read_noise_e),
+            (
+                "small_pd_dark_current_e_per_s",
+                self.small_pd_dark_current_e_per_s,
+            ),
+        ];
+        for (key, v) in non_negative {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(cfg_err(key, "finite and ≥ 0", v));
+            }
+        }
+        if !self.dark_reference_temperature_c.is_finite() {
+            return Err(cfg_err(
+                "dark_reference_temperature_c",
+                "finite",
+                self.dark_reference_temperature_c,
+            ));
+        }
+        if self.prnu_percent >= 30.0 {
+            return Err(cfg_err("prnu_percent", "< 30 %", self.prnu_percent));
+        }
+        if !(8..=16).contains(&self.adc_bits) {
+            return Err(cfg_err("adc_bits", "in 8..=16", self.adc_bits));
+        }
+        let max_dn = ((1u32 << self.adc_bits) - 1) as f64;
+        if self.black_level_dn >= max_dn {
+            return Err(cfg_err(
+                "black_level_dn",
+                &format!("below the ADC maximum {max_dn} DN"),
+                self.black_level_dn,
+            ));
+        }
+        if !(self.analog_gain.is_finite() && (1.0..=1000.0).contains(&self.analog_gain)) {
+            return Err(cfg_err("analog_gain", "in [1, 1000]", self.analog_gain));
+        }
+        if let Some(t) = self.row_time_s
+            && !(t.is_finite() && t > 0.0 && t < 0.01)
+        {
+            return Err(cfg_err("row_time_s", "in (0, 0.01) s", t));
+        }
+        if !(self.readout_fraction.is_finite()
+            && self.readout_fraction > 0.0
+            && self.readout_fraction <= 1.0)
+        {
+            return Err(cfg_err(
+                "readout_fraction",
+                "in (0, 1]",
+                self.readout_fraction,
+            ));
+        }
+        if self.max_exposure_s > 10.0 || self.min_exposure_s > self.max_exposure_s {
+            return Err(cfg_err(
+                "max_exposure_s",
+                "≥ min_exposure_s and ≤ 10 s",
+                self.max_exposure_s,
+            ));
+        }
+        if !(self.ae_target_fraction.is_finite()
+            && self.ae_target_fraction > 0.0
+            && self.ae_target_fraction <= 1.0)
+        {
+            return Err(cfg_err(
+                "ae_target_fraction",
+                "in (0, 1]",
+                self.ae_target_fraction,
+            ));
+        }
+        if self.small_pd_relative_sensitivity > 1.0 {
+            return Err(cfg_err(
+                "small_pd_relative_sensitivity",
+                "≤ 1",
+                self.small_pd_relative_sensitivity,
+            ));
+        }
         Ok(())
     }
 
     /// Rolling-shutter line time, s, for an image of `height` rows read within `frame_cycle_s`
-    /// (the configured line time if any).
+    /// (the configured line time if any, else `readout_fraction · frame_cycle_s / height`).
     pub fn row_time_s(&self, height: usize, frame_cycle_s: f64) -> f64 {
-        0.5 * frame_cycle_s / height.max(1) as f64
+        match self.row_time_s {
+            Some(t) => t,
+            None => {
+                let cycle = if frame_cycle_s.is_finite() && frame_cycle_s > 0.0 {
+                    frame_cycle_s
+                } else {
+                    0.0
+                };
+                self.readout_fraction * cycle / height.max(1) as f64
+            }
+        }
+    }
+
+    /// Dark current of the large photodiode at `temperature_c`, e⁻/s:
+    /// `I_ref · 2^((T − T_ref)/T_2)`.
+    pub fn dark_current_at(&self, temperature_c: f64) -> f64 {
+        self.dark_current_e_per_s * self.dark_factor(temperature_c)
+    }
+
+    fn dark_factor(&self, temperature_c: f64) -> f64 {
+        ((temperature_c - self.dark_reference_temperature_c) / self.dark_doubling_k)
+            .clamp(-200.0, 200.0)
+            .exp2()
     }
 }
 
@@ -57,10 +384,56 @@ pub struct ExposureSpec {
     pub index: u32,
 }
 
+/// SplitMix64 finaliser (Steele, Lea, Flood, OOPSLA 2014): decorrelates per-row seeds.
+fn splitmix64(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Row generator for stream `stream` of seed `seed`.
+fn row_rng(seed: u64, stream: u64, row: usize) -> SmallRng {
+    SmallRng::seed_from_u64(splitmix64(
+        seed ^ splitmix64(stream ^ splitmix64(row as u64)),
+    ))
+}
+
+/// Poisson deviate (Knuth's multiplication method below [`POISSON_EXACT_BELOW`], else the normal
+/// approximation `μ + √μ·z`).
+#[inline]
+fn poisson(rng: &mut SmallRng, mean: f64) -> f64 {
+    if mean <= 0.0 {
+        return 0.0;
+    }
+    if mean < POISSON_EXACT_BELOW {
+        let limit = (-mean).exp();
+        let mut p: f64 = rng.random();
+        let mut k = 0.0;
+        while p > limit {
+            k += 1.0;
+            p *= rng.random::<f64>();
+        }
+        k
+    } else {
+        let z: f64 = rng.sample(StandardNormal);
+        (mean + mean.sqrt() * z).max(0.0)
+    }
+}
+
 /// The planned pixel array (fixed-pattern maps drawn once from the seed).
 pub struct PixelModel {
+    config: PixelConfig,
     width: usize,
     height: usize,
+    shot: bool,
+    read: bool,
+    dark: bool,
+    saturation: bool,
+    /// DSNU offsets, e⁻ (empty: `camera.dsnu` off).
+    dsnu_e: Vec<f32>,
+    /// PRNU gains `1 + p_i` (empty: `camera.prnu` off).
+    prnu_gain: Vec<f32>,
 }
 
 impl PixelModel {
@@ -71,37 +444,174 @@ impl PixelModel {
         effects: &Effects,
         seed: u64,
     ) -> Result<PixelModel, ModelError> {
-        let _ = (config, effects, seed);
-        Ok(PixelModel { width, height })
+        config.validate()?;
+        if width == 0 || height == 0 || width.checked_mul(height).is_none() {
+            return Err(ModelError::Config(format!(
+                "`camera.width_px`/`camera.height_px` must be > 0, got {width} × {height}"
+            )));
+        }
+        let map = |stream: u64, sigma: f64, offset: f32| -> Vec<f32> {
+            let mut v = vec![0f32; width * height];
+            v.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
+                let mut rng = row_rng(seed, stream, y);
+                for p in row {
+                    let z: f64 = rng.sample(StandardNormal);
+                    *p = offset + (sigma * z) as f32;
+                }
+            });
+            v
+        };
+        let dsnu_e = if effects.is_on(&DSNU) && config.dsnu_e > 0.0 {
+            map(0xD5A0, config.dsnu_e, 0.0)
+        } else {
+            Vec::new()
+        };
+        let prnu_gain = if effects.is_on(&PRNU) && config.prnu_percent > 0.0 {
+            let mut m = map(0x9A00, config.prnu_percent / 100.0, 1.0);
+            // A gain cannot be negative (only reachable for absurd PRNU values).
+            m.iter_mut().for_each(|g| *g = g.max(0.0));
+            m
+        } else {
+            Vec::new()
+        };
+        Ok(PixelModel {
+            config: config.clone(),
+            width,
+            height,
+            shot: effects.is_on(&SHOT_NOISE),
+            read: effects.is_on(&READ_NOISE),
+            dark: effects.is_on(&DARK_CURRENT),
+            saturation: effects.is_on(&SATURATION),
+            dsnu_e,
+            prnu_gain,
+        })
+    }
+
+    /// The configuration the model was planned with.
+    pub fn config(&self) -> &PixelConfig {
+        &self.config
+    }
+
+    /// Array size (width, height), px.
+    pub fn size(&self) -> (usize, usize) {
+        (self.width, self.height)
     }
 
     /// CFA layout of the array.
     pub fn cfa(&self) -> Cfa {
-        Cfa::Rggb
+        self.config.cfa
+    }
+
+    /// The DSNU offset map, e⁻ (empty when `camera.dsnu` is off).
+    pub fn dsnu_map_e(&self) -> &[f32] {
+        &self.dsnu_e
+    }
+
+    /// The PRNU gain map `1 + p_i` (empty when `camera.prnu` is off).
+    pub fn prnu_map(&self) -> &[f32] {
+        &self.prnu_gain
     }
 
     /// The single-exposure capture of the configuration (base of the HDR sequence).
     pub fn base_exposure(&self, time_s: f64) -> ExposureSpec {
         ExposureSpec {
             time_s,
-            analog_gain: 1.0,
+            analog_gain: self.config.analog_gain,
             relative_sensitivity: 1.0,
-            conversion_gain_dn_per_e: 0.25,
-            full_well_e: 10_000.0,
-            read_noise_e: 2.0,
+            conversion_gain_dn_per_e: self.config.conversion_gain_dn_per_e,
+            full_well_e: self.config.full_well_e,
+            read_noise_e: self.config.read_noise_e,
             start_offset_s: 0.0,
             index: 0,
         }
     }
 
+    /// The reads of a split pixel (IMX490 class), all integrating over the same window:
+    /// large PD at high conversion gain, large PD at low conversion gain, small PD.
+    pub fn split_pixel_captures(&self, time_s: f64) -> [ExposureSpec; 3] {
+        let c = &self.config;
+        let hcg = self.base_exposure(time_s);
+        let lcg = ExposureSpec {
+            conversion_gain_dn_per_e: c.lcg_conversion_gain_dn_per_e,
+            read_noise_e: c.lcg_read_noise_e,
+            index: 1,
+            ..hcg
+        };
+        let spd = ExposureSpec {
+            relative_sensitivity: c.small_pd_relative_sensitivity,
+            conversion_gain_dn_per_e: c.small_pd_conversion_gain_dn_per_e,
+            full_well_e: c.small_pd_full_well_e,
+            read_noise_e: c.small_pd_read_noise_e,
+            index: 2,
+            ..hcg
+        };
+        [hcg, lcg, spd]
+    }
+
+    /// Largest code of the ADC, DN.
+    pub fn max_dn(&self) -> u32 {
+        (1u32 << self.config.adc_bits) - 1
+    }
+
+    /// Electrons at which a capture saturates: the full well or the ADC range, whichever is
+    /// reached first.
+    pub fn saturation_e(&self, exposure: &ExposureSpec) -> f64 {
+        let k = exposure.conversion_gain_dn_per_e * exposure.analog_gain;
+        let adc = (f64::from(self.max_dn()) - self.config.black_level_dn) / k;
+        exposure.full_well_e.min(adc)
+    }
+
+    /// Dark current of the photodiode a capture reads at `temperature_c`, e⁻/s (the small PD's
+    /// when the capture's relative sensitivity is below 1).
+    pub fn dark_current_e_per_s(&self, exposure: &ExposureSpec, temperature_c: f64) -> f64 {
+        let c = &self.config;
+        let reference = if exposure.relative_sensitivity < 1.0 {
+            c.small_pd_dark_current_e_per_s
+        } else {
+            c.dark_current_e_per_s
+        };
+        reference * c.dark_factor(temperature_c)
+    }
+
     /// Exposure time an auto-exposure loop converges to for this rate image, s.
+    ///
+    /// Converged AE in closed form (the signal is linear in the exposure time): the log-average
+    /// of the green generation rate, `R̄ = exp(mean ln max(r_G, 1 e⁻/s))` (the scene "key",
+    /// Reinhard et al., SIGGRAPH 2002; robust to a sun disk in view), is placed at
+    /// `ae_target_fraction` of the saturation signal of the base capture:
+    /// `t = f · N_sat / R̄`, clamped to `[min_exposure_s, max_exposure_s]`.
     pub fn auto_exposure_s(&self, rate: &ChannelImage) -> f64 {
-        let _ = rate;
-        0.01
+        let c = &self.config;
+        let plane = &rate.planes[GREEN];
+        if plane.is_empty() {
+            return c.max_exposure_s;
+        }
+        let chunk = rate.width.max(1);
+        let sums: Vec<f64> = plane
+            .par_chunks(chunk)
+            .map(|row| {
+                row.iter()
+                    .map(|&v| {
+                        let v = f64::from(v);
+                        if v.is_finite() { v.max(1.0).ln() } else { 0.0 }
+                    })
+                    .sum::<f64>()
+            })
+            .collect();
+        let mean_ln = sums.iter().sum::<f64>() / plane.len() as f64;
+        let key = mean_ln.exp();
+        let sat = self.saturation_e(&self.base_exposure(1.0));
+        let t = c.ae_target_fraction * sat / key;
+        if t.is_finite() {
+            t.clamp(c.min_exposure_s, c.max_exposure_s)
+        } else {
+            c.max_exposure_s
+        }
     }
 
     /// Expose the array: `rate` in e⁻/s per pixel and channel (the pixel reads its CFA channel),
     /// flicker samples integrated per row over the capture's window.
+    #[allow(clippy::too_many_arguments)]
     pub fn expose(
         &self,
         rate: &ChannelImage,
@@ -112,15 +622,140 @@ impl PixelModel {
         noise_seed: u64,
         out: &mut RawImage,
     ) {
-        let _ = (rate, flicker, timing, temperature_c, noise_seed);
-        out.width = self.width;
-        out.height = self.height;
+        let (w, h) = (self.width, self.height);
+        let cfg = &self.config;
+        out.width = w;
+        out.height = h;
         out.data.clear();
-        out.data.resize(self.width * self.height, 0);
-        out.bit_depth = 12;
+        out.data.resize(w * h, 0);
+        out.bit_depth = cfg.adc_bits;
+        out.black_level_dn = cfg.black_level_dn;
         out.exposure_time_s = exposure.time_s;
         out.analog_gain = exposure.analog_gain;
         out.conversion_gain_dn_per_e = exposure.conversion_gain_dn_per_e * exposure.analog_gain;
+        out.row_time_s = timing.row_time_s;
         out.exposure_index = exposure.index;
+
+        let t = if exposure.time_s.is_finite() {
+            exposure.time_s.max(0.0)
+        } else {
+            0.0
+        };
+        let sens = exposure.relative_sensitivity.max(0.0);
+        let gain = exposure.conversion_gain_dn_per_e * exposure.analog_gain;
+        let black = cfg.black_level_dn;
+        let top = if self.saturation {
+            f64::from(self.max_dn())
+        } else {
+            f64::from(u32::MAX)
+        };
+        let full_well = if self.saturation {
+            exposure.full_well_e
+        } else {
+            f64::INFINITY
+        };
+        let mu_dark = if self.dark {
+            self.dark_current_e_per_s(exposure, temperature_c) * t
+        } else {
+            0.0
+        };
+        let read_sigma = if self.read {
+            exposure.read_noise_e
+        } else {
+            0.0
+        };
+        let same_size = rate.width == w && rate.height == h;
+        let cfa = cfg.cfa;
+        let shot = self.shot;
+
+        // Flicker samples of each row (sorted by pixel; one allocation per capture).
+        let mut flick: Vec<(u32, u32)> = flicker
+            .samples
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| {
+                (s.pixel as usize) < w * h && (s.source as usize) < flicker.sources.len()
+            })
+            .map(|(k, s)| (s.pixel, k as u32))
+            .collect();
+        flick.sort_unstable();
+
+        // Shot noise keyed by the photodiode's integration window, not by the read (see the
+        // module documentation).
+        let shot_seed = splitmix64(
+            (noise_seed & 0x00FF_FFFF_FFFF_FFFF)
+                ^ splitmix64(exposure.time_s.to_bits())
+                ^ splitmix64(exposure.start_offset_s.to_bits() ^ 0x5555)
+                ^ splitmix64(exposure.relative_sensitivity.to_bits() ^ 0xAAAA),
+        );
+        let row_start0 = timing.frame_time_s + timing.start_offset_s + exposure.start_offset_s;
+
+        out.data.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+            let mut shot_rng = row_rng(shot_seed, 0x5407, y);
+            let mut read_rng = row_rng(noise_seed, 0x4EAD, y);
+            let base = y * w;
+            let t0 = row_start0 + y as f64 * timing.row_time_s;
+            let lo = flick.partition_point(|&(p, _)| (p as usize) < base);
+            let hi = flick.partition_point(|&(p, _)| (p as usize) < base + w);
+            let row_flicker = &flick[lo..hi];
+            let mut next_flicker = 0usize;
+            // Row slices (no per-pixel bounds checks) and the CFA pattern of the row.
+            let planes: [&[f32]; 3] = if same_size {
+                [
+                    &rate.planes[0][base..base + w],
+                    &rate.planes[1][base..base + w],
+                    &rate.planes[2][base..base + w],
+                ]
+            } else {
+                [&[], &[], &[]]
+            };
+            let pattern = [cfa.channel(0, y), cfa.channel(1, y)];
+            let prnu_row = self.prnu_gain.get(base..base + w).unwrap_or(&[]);
+            let dsnu_row = self.dsnu_e.get(base..base + w).unwrap_or(&[]);
+            for (x, px) in row.iter_mut().enumerate() {
+                let i = base + x;
+                let c = pattern[x & 1];
+                let r = planes[c].get(x).map_or(0.0, |&v| f64::from(v));
+                let mut mu_e = if r.is_finite() && r > 0.0 {
+                    r * t * sens
+                } else {
+                    0.0
+                };
+                while next_flicker < row_flicker.len() && row_flicker[next_flicker].0 as usize == i
+                {
+                    let s = &flicker.samples[row_flicker[next_flicker].1 as usize];
+                    let src = &flicker.sources[s.source as usize];
+                    let v = f64::from(s.value[c]);
+                    let duty = if src.duty > 0.0 && src.frequency_hz > 0.0 {
+                        src.duty.min(1.0)
+                    } else {
+                        1.0
+                    };
+                    if v.is_finite() && v > 0.0 {
+                        mu_e += v / duty * src.on_fraction(t0, t) * t * sens;
+                    }
+                    next_flicker += 1;
+                }
+                if let Some(g) = prnu_row.get(x) {
+                    mu_e *= f64::from(*g);
+                }
+                let mean = mu_e + mu_dark;
+                let mut n = if shot {
+                    poisson(&mut shot_rng, mean)
+                } else {
+                    mean
+                };
+                n = n.min(full_well);
+                if let Some(o) = dsnu_row.get(x) {
+                    n += f64::from(*o);
+                }
+                if read_sigma > 0.0 {
+                    let z: f64 = read_rng.sample(StandardNormal);
+                    n += read_sigma * z;
+                }
+                let dn = (n * gain + black).round();
+                *px = dn.clamp(0.0, top) as u32;
+            }
+        });
     }
 }

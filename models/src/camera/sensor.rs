@@ -268,11 +268,10 @@ pub struct CameraSensor {
     config: SensorConfig,
     camera: CameraConfig,
     effects: Effects,
-    ideal: crate::ideal::IdealSensor,
+    handshake: crate::world::Handshake,
     world: SensorWorld,
     chain: CameraChain,
     recognition: CameraRecognition,
-    sensor_id: Option<u64>,
     cycle: u64,
     /// Exposure of the previous frame (auto exposure), s.
     last_exposure_s: Option<f64>,
@@ -297,14 +296,13 @@ impl CameraSensor {
         let chain = CameraChain::plan(&config, &camera, &effects)?;
         let recognition = CameraRecognition::new(&camera.recognition)?;
         Ok(CameraSensor {
-            ideal: crate::ideal::IdealSensor::new(config.clone()),
+            handshake: crate::world::Handshake::new(&config),
             config,
             camera,
             effects,
             world: SensorWorld::new(),
             chain,
             recognition,
-            sensor_id: None,
             cycle: 0,
             last_exposure_s: None,
             buffers: Buffers::default(),
@@ -394,23 +392,16 @@ impl SensorModel for CameraSensor {
     }
 
     fn view_configuration_request(&self) -> osi3::SensorViewConfiguration {
-        self.ideal.view_configuration_request()
+        self.handshake.request()
     }
 
     fn apply_view_configuration(
         &mut self,
         granted: &osi3::SensorViewConfiguration,
     ) -> Result<Vec<String>, ModelError> {
-        let notes = self.ideal.apply_view_configuration(granted)?;
-        if let Some(v) = granted.sensor_id.and_then(|i| i.value) {
-            self.sensor_id = Some(v);
-        }
-        let c = self.ideal.config();
-        if c.fov_horizontal_rad != self.config.fov_horizontal_rad
-            || c.fov_vertical_rad != self.config.fov_vertical_rad
-            || c.range_m != self.config.range_m
-        {
-            self.config = c.clone();
+        let (notes, changed) = self.handshake.apply(granted)?;
+        if changed {
+            self.config = self.handshake.config().clone();
             self.chain = CameraChain::plan(&self.config, &self.camera, &self.effects)?;
         }
         Ok(notes)
@@ -435,9 +426,12 @@ impl SensorModel for CameraSensor {
         let cycle = self.cycle;
         self.cycle += 1;
         let seed = self.config.seed.unwrap_or(0);
-        let frame = self
-            .world
-            .update(input.view, &self.config, input.time_s, self.sensor_id)?;
+        let frame = self.world.update(
+            input.view,
+            &self.config,
+            input.time_s,
+            self.handshake.sensor_id(),
+        )?;
         let chain = &mut self.chain;
         let b = &mut self.buffers;
         let (w, h) = (chain.resolved.width, chain.resolved.height);
@@ -545,6 +539,22 @@ impl SensorModel for CameraSensor {
             cycle,
         };
         self.recognition.step(&rec_in, &mut moving, &mut b.divp);
+        // The configured maximum detection range (`range_m`) bounds what recognition reports.
+        let range_m = self.config.range_m;
+        b.divp.retain(|o| {
+            o.longitudinal_distance_m
+                .unwrap_or(0.0)
+                .hypot(o.lateral_distance_m.unwrap_or(0.0))
+                <= range_m
+        });
+        moving.retain(|m| {
+            let gid = m
+                .header
+                .as_ref()
+                .and_then(|h| h.ground_truth_id.first())
+                .and_then(|i| i.value);
+            b.divp.iter().any(|o| o.object_id == gid)
+        });
         self.times.recognition_s = t.elapsed().as_secs_f64();
 
         // Outputs.
@@ -595,6 +605,64 @@ impl SensorModel for CameraSensor {
                 ..Default::default()
             });
         }
+        // Feature data: one box-shaped CameraDetection per recognised object, its four corners as
+        // directions (with the estimated distance) in the sensor frame (as the ideal model writes
+        // its box corners).
+        let mut dets = Vec::with_capacity(b.divp.len());
+        let mut points = Vec::with_capacity(4 * b.divp.len());
+        for o in &b.divp {
+            let (Some(u0), Some(v0), Some(u1), Some(v1)) = (
+                o.box_u_min_px,
+                o.box_v_min_px,
+                o.box_u_max_px,
+                o.box_v_max_px,
+            ) else {
+                continue;
+            };
+            let range_m = o
+                .longitudinal_distance_m
+                .unwrap_or(0.0)
+                .hypot(o.lateral_distance_m.unwrap_or(0.0));
+            let first = points.len();
+            for (u, v) in [(u0, v0), (u1, v0), (u1, v1), (u0, v1)] {
+                if let Some(d) = chain.lens.unproject(glam::DVec2::new(u, v)) {
+                    points.push(osi3::CameraPoint {
+                        existence_probability: o.detection_probability,
+                        point: Some(
+                            crate::frames::Spherical::from_cartesian(d.normalize() * range_m)
+                                .to_osi(),
+                        ),
+                        point_rmse: None,
+                    });
+                }
+            }
+            let is_vehicle = o.type_code.is_some_and(|t| t <= 10);
+            let is_pedestrian = o.type_code.is_some_and(|t| (101..=103).contains(&t));
+            dets.push(osi3::CameraDetection {
+                existence_probability: o.detection_probability,
+                object_id: o.object_id.map(osiris_proto::id),
+                image_shape_type: Some(osi3::camera_detection::ImageShapeType::Box as i32),
+                shape_classification_moving_object: Some(true),
+                shape_classification_vehicle: Some(is_vehicle),
+                shape_classification_pedestrian: Some(is_pedestrian),
+                shape_classification_animal: Some(o.type_code == Some(203)),
+                first_point_index: Some(first as u32),
+                number_of_points: Some((points.len() - first) as u32),
+                ..Default::default()
+            });
+        }
+        let mut camera_header = frame.detection_header(cycle, dets.len());
+        camera_header.number_of_valid_detections = Some(dets.len() as u32);
+        let feature_data = osi3::FeatureData {
+            version: Some(interface_version()),
+            camera_sensor: vec![osi3::CameraDetectionData {
+                header: Some(camera_header),
+                detection: dets,
+                point: points,
+                ..Default::default()
+            }],
+            ..Default::default()
+        };
         camera_out.object.append(&mut b.divp);
         camera_out.temperature_c = Some(temperature_c);
         camera_out
@@ -604,6 +672,7 @@ impl SensorModel for CameraSensor {
         let sd = &mut out.sensor_data;
         frame.fill_sensor_data_header(sd, cycle);
         sd.moving_object = moving;
+        sd.feature_data = Some(feature_data);
         let p = &mut out.perception;
         p.osi_version = Some(interface_version());
         p.extension_version = Some(osiris_proto::PERCEPTION_EXTENSION_VERSION.to_string());

@@ -622,11 +622,10 @@ pub struct LidarSensor {
     lidar: LidarConfig,
     resolved: Resolved,
     effects: Effects,
-    ideal: crate::ideal::IdealSensor,
+    handshake: crate::world::Handshake,
     world: SensorWorld,
     engine: LidarEngine,
     recognition: LidarRecognition,
-    sensor_id: Option<u64>,
     cycle: u64,
     points: Vec<LidarPoint>,
 }
@@ -648,7 +647,7 @@ impl LidarSensor {
         let engine = Self::plan(&config, &lidar, &resolved, &effects)?;
         let recognition = LidarRecognition::new(&lidar.recognition)?;
         Ok(LidarSensor {
-            ideal: crate::ideal::IdealSensor::new(config.clone()),
+            handshake: crate::world::Handshake::new(&config),
             config,
             lidar,
             resolved,
@@ -656,7 +655,6 @@ impl LidarSensor {
             world: SensorWorld::new(),
             engine,
             recognition,
-            sensor_id: None,
             cycle: 0,
             points: Vec::new(),
         })
@@ -710,23 +708,16 @@ impl SensorModel for LidarSensor {
     }
 
     fn view_configuration_request(&self) -> osi3::SensorViewConfiguration {
-        self.ideal.view_configuration_request()
+        self.handshake.request()
     }
 
     fn apply_view_configuration(
         &mut self,
         granted: &osi3::SensorViewConfiguration,
     ) -> Result<Vec<String>, ModelError> {
-        let notes = self.ideal.apply_view_configuration(granted)?;
-        if let Some(v) = granted.sensor_id.and_then(|i| i.value) {
-            self.sensor_id = Some(v);
-        }
-        let c = self.ideal.config();
-        if c.fov_horizontal_rad != self.config.fov_horizontal_rad
-            || c.fov_vertical_rad != self.config.fov_vertical_rad
-            || c.range_m != self.config.range_m
-        {
-            self.config = c.clone();
+        let (notes, changed) = self.handshake.apply(granted)?;
+        if changed {
+            self.config = self.handshake.config().clone();
             self.engine = Self::plan(&self.config, &self.lidar, &self.resolved, &self.effects)?;
         }
         Ok(notes)
@@ -763,9 +754,12 @@ impl SensorModel for LidarSensor {
             .and_then(|g| g.environmental_conditions.clone());
         let cycle = self.cycle;
         self.cycle += 1;
-        let frame = self
-            .world
-            .update(input.view, &self.config, input.time_s, self.sensor_id)?;
+        let frame = self.world.update(
+            input.view,
+            &self.config,
+            input.time_s,
+            self.handshake.sensor_id(),
+        )?;
         let signal = SignalPlan::new(
             &self.lidar.signal,
             &self.effects,

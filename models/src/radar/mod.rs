@@ -108,13 +108,12 @@ pub struct RadarSensor {
     config: SensorConfig,
     radar: RadarConfig,
     effects: Effects,
-    ideal: crate::ideal::IdealSensor,
+    handshake: crate::world::Handshake,
     world: SensorWorld,
     propagator: Propagator,
     antennas: Antennas,
     chain: RadarChain,
     recognition: RadarRecognition,
-    sensor_id: Option<u64>,
     cycle: u64,
     seed: u64,
     paths: Vec<PathReturn>,
@@ -151,7 +150,7 @@ impl RadarSensor {
         )?;
         let recognition = RadarRecognition::new(&radar.recognition)?;
         Ok(RadarSensor {
-            ideal: crate::ideal::IdealSensor::new(config.clone()),
+            handshake: crate::world::Handshake::new(&config),
             antennas: Antennas::new(&radar.front_end, &effects),
             seed: config.seed.unwrap_or(0),
             config,
@@ -161,7 +160,6 @@ impl RadarSensor {
             propagator,
             chain,
             recognition,
-            sensor_id: None,
             cycle: 0,
             paths: Vec::new(),
             chain_out: Vec::new(),
@@ -196,9 +194,12 @@ impl RadarSensor {
 
     /// Only the propagation of one step: the paths of `view` (no baseband, no outputs).
     pub fn propagate(&mut self, input: &StepInput<'_>) -> Result<&[PathReturn], ModelError> {
-        let frame = self
-            .world
-            .update(input.view, &self.config, input.time_s, self.sensor_id)?;
+        let frame = self.world.update(
+            input.view,
+            &self.config,
+            input.time_s,
+            self.handshake.sensor_id(),
+        )?;
         self.propagator.compute(
             &frame,
             (self.config.fov_horizontal_rad, self.config.fov_vertical_rad),
@@ -248,18 +249,15 @@ impl SensorModel for RadarSensor {
     }
 
     fn view_configuration_request(&self) -> osi3::SensorViewConfiguration {
-        self.ideal.view_configuration_request()
+        self.handshake.request()
     }
 
     fn apply_view_configuration(
         &mut self,
         granted: &osi3::SensorViewConfiguration,
     ) -> Result<Vec<String>, ModelError> {
-        let notes = self.ideal.apply_view_configuration(granted)?;
-        if let Some(v) = granted.sensor_id.and_then(|i| i.value) {
-            self.sensor_id = Some(v);
-        }
-        self.config = self.ideal.config().clone();
+        let (notes, _) = self.handshake.apply(granted)?;
+        self.config = self.handshake.config().clone();
         Ok(notes)
     }
 
@@ -286,9 +284,12 @@ impl SensorModel for RadarSensor {
 
         let cycle = self.cycle;
         self.cycle += 1;
-        let frame = self
-            .world
-            .update(input.view, &self.config, input.time_s, self.sensor_id)?;
+        let frame = self.world.update(
+            input.view,
+            &self.config,
+            input.time_s,
+            self.handshake.sensor_id(),
+        )?;
         self.propagator.compute(
             &frame,
             (self.config.fov_horizontal_rad, self.config.fov_vertical_rad),

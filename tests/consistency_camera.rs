@@ -1,0 +1,489 @@
+//! The camera part of the consistency workflow (issue 7) against the independent camera truth
+//! generator (`osiris::consistency::truth_camera`, EMVA 1288 written out again): RAW PNG campaigns
+//! with hidden effects, attribution through the same entry point as `osiris consistency`.
+
+use std::path::Path;
+
+use osiris::consistency::camera::{CameraCampaign, RawFrame, read_raw_png, write_raw_png};
+use osiris::consistency::report::Summary;
+use osiris::consistency::truth_camera::{CameraFiles, CameraHidden, CameraTruth, write_camera};
+use osiris::consistency::{ConsistencyArgs, cli};
+
+fn args(files: &CameraFiles, out: &Path, simulated: bool) -> ConsistencyArgs {
+    ConsistencyArgs {
+        meta: files.toml.clone(),
+        out: out.to_path_buf(),
+        simulated: simulated.then(|| files.simulated.clone()),
+        model: None,
+        enable: vec![],
+        disable: vec![],
+        history: None,
+    }
+}
+
+fn run(dir: &Path, spec: &CameraTruth) -> Summary {
+    let files = write_camera(&dir.join("campaign"), spec).unwrap();
+    cli::run_with(&args(&files, &dir.join("out"), true), None).expect("consistency run")
+}
+
+fn describe(s: &Summary) -> String {
+    let mut out = format!("status {}\n", s.status);
+    for a in &s.attribution {
+        out += &format!(
+            "  {} {} chi2/dof {:.2} -> {:.2} (thr {:.2}) tol {:.2} offset {:?} accepted {:?}\n",
+            a.quantity,
+            a.status.name(),
+            a.baseline_chi2 / a.baseline_dof.max(1) as f64,
+            a.final_chi2_per_dof,
+            a.consistent_threshold,
+            a.tolerance,
+            a.calibration_offset,
+            a.accepted
+        );
+        for e in a.effects.iter().take(4) {
+            out += &format!(
+                "    {} dBIC {:.1} expl {:.2} maxc {:.3} {:?} params {:?} tie {:?}\n",
+                e.id,
+                e.delta_bic,
+                e.explained_share,
+                e.max_contribution,
+                e.gates,
+                e.params.iter().map(|p| p.value).collect::<Vec<_>>(),
+                e.tie_group
+            );
+        }
+    }
+    for t in &s.tie_groups {
+        out += &format!("  tie {} {:?} {}\n", t.id, t.members, t.reason);
+    }
+    for m in &s.metrics {
+        out += &format!(
+            "  metric {} {:.3} tol {} pass {}\n",
+            m.id, m.value, m.tolerance, m.pass
+        );
+    }
+    out
+}
+
+/// Whether accepting `got` is right when `want` is hidden: the effect itself, or its signature in
+/// the other quantity (saturation collapses the variance; a missing dark current also lacks its
+/// dark shot noise, a temporal variance offset that the catalogue names read noise, EMVA 1288's
+/// σ_d²). A clip level just below the brightest ROIs clips only part of the pixels: the ROI mean
+/// bends softly, like a companding knee (its look-alike); the variance collapse names the switch.
+fn companion(want: &str, got: &str) -> bool {
+    got == want
+        || (want == "camera.saturation"
+            && (got == "camera.saturation_collapse" || got == "camera.hdr_companding"))
+        || (want == "camera.dark_current" && got == "camera.read_noise")
+}
+
+/// Physical catalogue effects (everything but the nuisance gain).
+fn physical(s: &Summary) -> Vec<String> {
+    s.accepted()
+        .into_iter()
+        .filter(|e| e != "camera.gain_offset")
+        .collect()
+}
+
+#[test]
+fn camera_toml_schema_errors_name_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = CameraTruth::default();
+    let good = osiris::consistency::truth_camera::campaign_toml(&spec, "x");
+    let cc = CameraCampaign::parse(&good, dir.path(), 15.0).unwrap();
+    assert_eq!(cc.frames.len(), 6 * 2 + 2 * 2 * 2);
+    assert_eq!(cc.rois.len(), 9);
+    assert!(cc.warnings.is_empty(), "{:?}", cc.warnings);
+    let err = |text: &str| {
+        CameraCampaign::parse(text, dir.path(), 15.0)
+            .unwrap_err()
+            .to_string()
+    };
+    let e = err(&good.replacen("exposure_s = 0.001\n", "", 1));
+    assert!(e.contains("frame[0].exposure_s"), "{e}");
+    let e = err(&good.replacen("width_px = 128", "width_px = 128.5", 1));
+    assert!(e.contains("sensor.width_px"), "{e}");
+    let first = good
+        .lines()
+        .find(|l| l.starts_with("rect_px"))
+        .unwrap()
+        .to_string();
+    let e = err(&good.replacen(&first, "rect_px = [120, 0, 32, 24]", 1));
+    assert!(e.contains("roi[0].rect_px"), "{e}");
+    let e = err(&good.replacen("cfa = \"rggb\"", "cfa = \"xyz\"", 1));
+    assert!(e.contains("sensor.cfa"), "{e}");
+    let cc = CameraCampaign::parse(
+        &good.replacen("dark = false", "dark = false\nflash = true", 1),
+        dir.path(),
+        15.0,
+    )
+    .unwrap();
+    assert!(
+        cc.warnings.iter().any(|w| w.contains("frame[0].flash")),
+        "{:?}",
+        cc.warnings
+    );
+    // The common loader accepts the camera keys without warnings.
+    let c = osiris::consistency::campaign::Campaign::parse(&good, dir.path()).unwrap();
+    assert!(c.warnings.is_empty(), "{:?}", c.warnings);
+}
+
+#[test]
+fn raw_png_round_trip_keeps_dn_and_black_level() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = RawFrame {
+        width: 6,
+        height: 4,
+        data: (0..24).map(|i| (i * 2731) as u16).collect(),
+        black_level_dn: Some(64.0),
+    };
+    let p = dir.path().join("a/f.png");
+    write_raw_png(&p, &f).unwrap();
+    assert_eq!(read_raw_png(&p).unwrap(), f);
+}
+
+#[test]
+fn null_campaign_is_consistent() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = run(dir.path(), &CameraTruth::default());
+    eprintln!("{}", describe(&s));
+    assert_eq!(s.status, "CONSISTENT", "{}", describe(&s));
+    assert!(s.accepted().is_empty());
+    // The unknown black-level offset (2.5 DN) is the fitted, reported nuisance.
+    let mean = s
+        .attribution
+        .iter()
+        .find(|a| a.quantity == "roi_mean_dn")
+        .unwrap();
+    let off = mean.calibration_offset.unwrap();
+    assert!((off[0] - 2.5).abs() < 0.5, "offset {off:?}");
+    assert!(s.distributions.contains_key("roi_pixel_dn"));
+    // Frame 3 is missing from the measurement: counted, not an error.
+    assert_eq!(s.pairing.missing_meas_frames, 1);
+}
+
+fn found(h: CameraHidden, magnitude: f64, seed: u64) -> (bool, Summary) {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = CameraTruth {
+        seed,
+        hidden: Some(h),
+        magnitude,
+        ..CameraTruth::default()
+    };
+    let s = run(dir.path(), &spec);
+    let want = h.expected().unwrap();
+    let named = |a: &String| {
+        a == want || (want == "camera.saturation" && a == "camera.saturation_collapse")
+    };
+    let ok = s.accepted().iter().any(named) && physical(&s).iter().all(|a| companion(want, a));
+    (ok, s)
+}
+
+#[test]
+fn each_hidden_effect_alone_is_found_at_1x_and_3x_tolerance() {
+    let mut missed = Vec::new();
+    for h in CameraHidden::ALL_IN_CATALOGUE {
+        for m in [1.0, 3.0] {
+            let (ok, s) = found(h, m, 11);
+            eprintln!("RESULT {h:?} at {m}×: {ok} {}", s.status);
+            eprintln!("{}", describe(&s));
+            // Shot noise at 1× lives in the brightest temporal pairs only: its χ² gain is real
+            // (ΔBIC ≫ 10) but the baseline χ²/dof stays below 1, so gate 3 (share of the excess
+            // χ²) cannot pass; ½× and 1× may legitimately stay CONSISTENT (hit rates: README).
+            let required = m >= 3.0 || h != CameraHidden::ShotNoise;
+            if required && (!ok || s.status == "CONSISTENT") {
+                missed.push(format!("{h:?} at {m}×"));
+            }
+        }
+    }
+    assert!(missed.is_empty(), "not found: {missed:?}");
+}
+
+#[test]
+fn look_alikes_on_a_single_exposure_design_tie() {
+    // Read noise vs DSNU: no temporal pairs on single frames.
+    let dir = tempfile::tempdir().unwrap();
+    let spec = CameraTruth {
+        hidden: Some(CameraHidden::Dsnu),
+        magnitude: 3.0,
+        ..CameraTruth::default().single_exposure()
+    };
+    let s = run(dir.path(), &spec);
+    eprintln!("{}", describe(&s));
+    let tie = s
+        .tie_groups
+        .iter()
+        .find(|t| t.members.iter().any(|m| m == "camera.dsnu"))
+        .unwrap_or_else(|| panic!("no tie group with camera.dsnu\n{}", describe(&s)));
+    assert!(
+        tie.members.iter().any(|m| m == "camera.read_noise"),
+        "{}",
+        describe(&s)
+    );
+    assert!(tie.discriminating_experiment.contains("temporal"));
+    // Never a confident wrong answer.
+    for a in physical(&s) {
+        assert!(
+            a == "camera.dsnu" || tie.members.contains(&a),
+            "{a} accepted\n{}",
+            describe(&s)
+        );
+    }
+}
+
+#[test]
+fn out_of_catalogue_banding_is_not_explained_by_a_wrong_effect() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = CameraTruth {
+        hidden: Some(CameraHidden::FlickerBanding),
+        magnitude: 3.0,
+        ..CameraTruth::default()
+    };
+    let s = run(dir.path(), &spec);
+    eprintln!("{}", describe(&s));
+    assert!(
+        s.status == "UNEXPLAINED" || s.status == "PARTIALLY_EXPLAINED",
+        "{}",
+        describe(&s)
+    );
+    assert!(physical(&s).is_empty(), "{}", describe(&s));
+}
+
+#[test]
+fn cli_binary_runs_a_camera_campaign() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = write_camera(&dir.path().join("campaign"), &CameraTruth::default()).unwrap();
+    let out = dir.path().join("out");
+    let st = std::process::Command::new(env!("CARGO_BIN_EXE_osiris"))
+        .arg("consistency")
+        .arg("--meta")
+        .arg(&files.toml)
+        .arg("--out")
+        .arg(&out)
+        .arg("--simulated")
+        .arg(&files.simulated)
+        .output()
+        .unwrap();
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(json["sensor"], "camera");
+    assert_eq!(json["status"], "CONSISTENT");
+    assert!(out.join("report.html").exists());
+}
+
+/// Close the loop with our own model: "measured" = the physical camera with every effect on,
+/// "simulated" = the same model with `camera.prnu` off; the tool must name PRNU; enabling it and
+/// re-simulating brings the held-out error below tolerance. Skipped while the camera stages are
+/// stubs (all-zero RAW, or no light in the lit frames).
+///
+/// Ignored for now: with the camera stages landing in parallel (issue 6), the model's own frames at
+/// two seeds differ by ≈ +10 % in variance with everything on (a null that is not yet null), so
+/// the loop cannot close yet. `cargo test --test consistency_camera -- --ignored closed_loop`.
+#[test]
+#[ignore]
+fn closed_loop_with_the_osiris_camera_model() {
+    use osiris::consistency::camera::{CameraCampaign, simulate_frames};
+    use osiris::consistency::campaign::Campaign;
+    use osiris::consistency::simulate::{SimulateError, model_config};
+    let dir = tempfile::tempdir().unwrap();
+    let files = write_camera(&dir.path().join("campaign"), &CameraTruth::default()).unwrap();
+    let campaign = Campaign::load(&files.toml).unwrap();
+    let cc = CameraCampaign::load(&campaign, &files.toml).unwrap();
+    let views: Vec<osiris_proto::osi3::SensorView> =
+        osiris::consistency::pairing::read_trace(&files.sensor_view, "SensorView").unwrap();
+    // "Measured": the model with every effect on, another seed (another camera of the type).
+    let cfg = model_config(&campaign, None, &Default::default(), 9_001).unwrap();
+    let mut w = Vec::new();
+    let meas = match simulate_frames(&cfg, &cc, &views, &mut w) {
+        Ok(m) => m,
+        Err(SimulateError::NotAvailable(why)) => {
+            eprintln!("SKIPPED: closed loop needs the physical camera: {why}");
+            return;
+        }
+        Err(e) => panic!("{e}"),
+    };
+    // The renderer / lens may still be stubs: no light, only the dark signal.
+    let lit = cc
+        .frames
+        .iter()
+        .zip(&meas)
+        .filter(|(f, _)| !f.dark)
+        .filter_map(|(_, m)| m.as_ref())
+        .map(|m| {
+            let bl = m.black_level_dn.unwrap_or(0.0);
+            m.data.iter().map(|&v| f64::from(v) - bl).sum::<f64>() / m.data.len() as f64
+        })
+        .fold(0.0, f64::max);
+    if lit < 50.0 {
+        eprintln!("SKIPPED: the simulated lit frames carry no light ({lit:.1} DN above black)");
+        return;
+    }
+    for (f, m) in cc.frames.iter().zip(&meas) {
+        let m = m.as_ref().unwrap();
+        write_raw_png(
+            &f.file,
+            &RawFrame {
+                black_level_dn: None,
+                ..m.clone()
+            },
+        )
+        .unwrap();
+    }
+    let run_with = |enable: Vec<String>, disable: Vec<String>, out: &str| {
+        cli::run_with(
+            &ConsistencyArgs {
+                meta: files.toml.clone(),
+                out: dir.path().join(out),
+                simulated: None,
+                model: None,
+                enable,
+                disable,
+                history: None,
+            },
+            None,
+        )
+        .unwrap()
+    };
+    let before = run_with(vec![], vec!["camera.prnu".into()], "before");
+    eprintln!("before\n{}", describe(&before));
+    assert!(
+        before.accepted().iter().any(|a| a == "camera.prnu"),
+        "{}",
+        describe(&before)
+    );
+    let after = run_with(vec!["camera.prnu".into()], vec![], "after");
+    eprintln!("after\n{}", describe(&after));
+    let q = "roi_variance_pct";
+    let (b, a) = (before.holdout_error[q], after.holdout_error[q]);
+    assert!(a < b, "held-out variance error {b} -> {a}");
+    assert!(a <= 20.0, "held-out variance error {a} % above tolerance");
+}
+
+/// The protocol (validation.md §8): ≥ 10 seeds per case; prints the hit rates.
+/// `cargo test --release --test consistency_camera -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn protocol_hit_rates_over_ten_seeds() {
+    let seeds: Vec<u64> = (100..110).collect();
+    let mut lines = Vec::new();
+    let mut null_ok = 0;
+    for &seed in &seeds {
+        let dir = tempfile::tempdir().unwrap();
+        let s = run(
+            dir.path(),
+            &CameraTruth {
+                seed,
+                ..CameraTruth::default()
+            },
+        );
+        null_ok += usize::from(s.status == "CONSISTENT");
+    }
+    lines.push(format!("null: CONSISTENT {null_ok}/{}", seeds.len()));
+    for h in CameraHidden::ALL_IN_CATALOGUE {
+        for m in [0.5, 1.0, 3.0] {
+            let mut hits = 0;
+            let mut wrong = 0;
+            for &seed in &seeds {
+                let (ok, s) = found(h, m, seed);
+                hits += usize::from(ok);
+                let want = h.expected().unwrap();
+                wrong += usize::from(physical(&s).iter().any(|a| !companion(want, a)));
+            }
+            lines.push(format!(
+                "{h:?} at {m}× tol: found {hits}/{}, a wrong effect accepted {wrong}/{}",
+                seeds.len(),
+                seeds.len()
+            ));
+        }
+    }
+    let (mut tie_ok, mut oc_ok) = (0, 0);
+    for &seed in &seeds {
+        let dir = tempfile::tempdir().unwrap();
+        let s = run(
+            dir.path(),
+            &CameraTruth {
+                seed,
+                hidden: Some(CameraHidden::Dsnu),
+                magnitude: 3.0,
+                ..CameraTruth::default().single_exposure()
+            },
+        );
+        tie_ok += usize::from(s.tie_groups.iter().any(|t| {
+            t.members.iter().any(|m| m == "camera.dsnu")
+                && t.members.iter().any(|m| m == "camera.read_noise")
+        }));
+        let dir = tempfile::tempdir().unwrap();
+        let s = run(
+            dir.path(),
+            &CameraTruth {
+                seed,
+                hidden: Some(CameraHidden::FlickerBanding),
+                magnitude: 3.0,
+                ..CameraTruth::default()
+            },
+        );
+        oc_ok += usize::from(
+            (s.status == "UNEXPLAINED" || s.status == "PARTIALLY_EXPLAINED")
+                && physical(&s).is_empty(),
+        );
+    }
+    lines.push(format!(
+        "look-alike DSNU vs read noise (single exposure): tie reported {tie_ok}/{}",
+        seeds.len()
+    ));
+    lines.push(format!(
+        "out-of-catalogue flicker banding: UNEXPLAINED/PARTIALLY with no wrong effect {oc_ok}/{}",
+        seeds.len()
+    ));
+    println!("{}", lines.join("\n"));
+}
+
+#[test]
+fn camera_catalogue_parses_with_known_switches_and_exact_signatures() {
+    use osiris::consistency::campaign::CampaignSensor;
+    use osiris::consistency::catalogue::Catalogue;
+    let c = Catalogue::builtin(CampaignSensor::Camera).unwrap();
+    let known: Vec<&str> = osiris_models::effects::catalogue()
+        .iter()
+        .map(|e| e.name)
+        .collect();
+    let ids: Vec<String> = c.effects.iter().map(|e| e.id().to_string()).collect();
+    assert!(ids.len() >= 10, "{ids:?}");
+    for e in &c.effects {
+        if let Some(s) = e.model_switch() {
+            assert!(known.contains(&s), "{}: unknown model switch {s}", e.id());
+        }
+        for o in e.confusable_with() {
+            assert!(ids.contains(o), "{}: {o}", e.id());
+        }
+    }
+    let get = |id: &str| c.effects.iter().find(|e| e.id() == id).unwrap().clone();
+    let mut x = [0.0; osiris::consistency::NVARS];
+    // sim = 3000 DN above black, v_sim = 1000 DN², spatial row, field angle 30°.
+    x[9] = 3000.0;
+    x[13] = 1000.0;
+    x[7] = 1.0;
+    x[0] = 30.0;
+    // Clip at 2000 DN: the mean loses 1000 DN.
+    let sat = get("camera.saturation").eval(&x, &[2000f64.log10()]);
+    assert!((sat + 1000.0).abs() < 1e-6, "{sat}");
+    // Missing shot noise with K = 0.3: v_meas = 1000 + 900 → 100·ln(1.9) log-%.
+    let shot = get("camera.shot_noise").eval(&x, &[0.3]);
+    assert!((shot - 100.0 * 1.9f64.ln()).abs() < 1e-9, "{shot}");
+    // PRNU 1 %: (30 DN)² = 900 DN² more spatial variance.
+    let prnu = get("camera.prnu").eval(&x, &[1.0]);
+    assert!((prnu - 100.0 * 1.9f64.ln()).abs() < 1e-9, "{prnu}");
+    // Natural vignetting cos⁴θ missing: the mean scales by cos⁴ 30° = 0.5625.
+    let vig = get("camera.vignetting").eval(&x, &[4.0]);
+    assert!((vig - 3000.0 * (0.5625 - 1.0)).abs() < 1e-6, "{vig}");
+    // Dark current doubling every p1 K: 2× at 25 + p1 °C.
+    x[5] = 0.01;
+    x[3] = 32.0;
+    let dc = get("camera.dark_current").eval(&x, &[1000.0, 7.0]);
+    assert!((dc - 20.0).abs() < 1e-9, "{dc}");
+}
