@@ -14,8 +14,10 @@
 //!    ground-truth box ([`Lens::project`] of its corners) with that box (slab test). The visible
 //!    fraction is `f = visible / expected` (ground-truth pose and size are used only here).
 //! 3. **Contrast**: Weber contrast `C = (L_obj − L_bg)/L_bg` of the mean luminance of the
-//!    object's pixels against the mean of a ring around its box (width
-//!    `max(ring_min_px, ring_fraction · max(box w, box h))`), without the object's pixels.
+//!    object's pixels against the mean of each side (above, below, left, right) of a ring around
+//!    its box (width `max(ring_min_px, ring_fraction · max(box w, box h))`), without the object's
+//!    pixels; the side with the largest |contrast| counts (an outline is visible where it stands
+//!    out from any part of its surroundings).
 //! 4. **Detection probability**: `p_d = p_max · σ_f · σ_h · σ_C` with
 //!    `σ_f = 1/(1 + exp(−k_f (f − f₅₀)))`, `σ_h = 1/(1 + (h₅₀/h)^{k_h})` (logistic in log pixel
 //!    height), `σ_C = 1/(1 + (C₅₀/|C|)^{k_C})` (logistic in log contrast), and `p_d = 0` below the
@@ -83,7 +85,8 @@ pub struct CameraRecognitionConfig {
     pub height_50_px: f64,
     /// Exponent of the size factor (slope of the logistic in ln px).
     pub height_slope: f64,
-    /// |Weber contrast| at which the contrast factor is 0.5.
+    /// |Weber contrast| at which the contrast factor is 0.5 for an object `height_50_px` high; larger
+    /// objects need proportionally less (Blackwell 1946; guessed simplification).
     pub contrast_50: f64,
     /// Exponent of the contrast factor (slope of the logistic in ln |C|).
     pub contrast_slope: f64,
@@ -177,9 +180,13 @@ impl CameraRecognitionConfig {
         let s_f =
             1.0 / (1.0 + (-self.visible_fraction_slope * (f - self.visible_fraction_50)).exp());
         let s_h = 1.0 / (1.0 + (self.height_50_px / height_px).powf(self.height_slope));
+        // Larger targets are seen at lower contrast (Blackwell, JOSA 36(11):624, 1946: threshold
+        // contrast falls with target size); here the 50 % contrast falls as 1/height above
+        // `height_50_px` (a guessed simplification).
+        let c50 = self.contrast_50 * (self.height_50_px / height_px).min(1.0);
         let s_c = if contrast.is_finite() {
             if c > 0.0 {
-                1.0 / (1.0 + (self.contrast_50 / c).powf(self.contrast_slope))
+                1.0 / (1.0 + (c50 / c).powf(self.contrast_slope))
             } else {
                 0.0
             }
@@ -493,7 +500,11 @@ impl CameraRecognition {
                         .ceil() as usize;
                     let (u0, u1) = (s.u_min.saturating_sub(ring), (s.u_max + ring).min(w - 1));
                     let (v0, v1) = (s.v_min.saturating_sub(ring), (s.v_max + ring).min(h - 1));
-                    let (mut sum, mut cnt) = (0.0f64, 0u64);
+                    // Ring sums per side (above, below, left, right of the box): an outline
+                    // is seen where it contrasts with any part of its surroundings (sky above,
+                    // road below), which one mean over the whole ring would average away.
+                    let mut sum = [0.0f64; 4];
+                    let mut cnt = [0u64; 4];
                     for v in v0..=v1 {
                         for u in u0..=u1 {
                             let inside =
@@ -502,17 +513,33 @@ impl CameraRecognition {
                             if inside || aux.object_index[i] == k as u32 {
                                 continue;
                             }
-                            sum += l[i] as f64;
-                            cnt += 1;
+                            let side = if v < s.v_min {
+                                0
+                            } else if v > s.v_max {
+                                1
+                            } else if u < s.u_min {
+                                2
+                            } else {
+                                3
+                            };
+                            sum[side] += l[i] as f64;
+                            cnt[side] += 1;
                         }
                     }
                     let l_obj = s.lum_sum / s.count as f64;
-                    if cnt == 0 {
-                        f64::NAN
-                    } else {
-                        let l_bg = sum / cnt as f64;
-                        (l_obj - l_bg) / l_bg.max(1e-9 * l_obj.abs().max(1e-30))
+                    let min_side = (ring as u64).max(4);
+                    let mut best = f64::NAN;
+                    for side in 0..4 {
+                        if cnt[side] < min_side {
+                            continue;
+                        }
+                        let l_bg = sum[side] / cnt[side] as f64;
+                        let c = (l_obj - l_bg) / l_bg.max(1e-9 * l_obj.abs().max(1e-30));
+                        if best.is_nan() || c.abs() > best.abs() {
+                            best = c;
+                        }
                     }
+                    best
                 }
                 None => f64::NAN,
             };
