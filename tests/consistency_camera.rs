@@ -200,6 +200,36 @@ fn each_hidden_effect_alone_is_found_at_1x_and_3x_tolerance() {
 }
 
 #[test]
+fn two_hidden_effects_together_are_both_found() {
+    // A mean effect (vignetting) and a variance effect (PRNU), each at 3× its tolerance.
+    let mut failures = Vec::new();
+    for seed in [21, 22, 23] {
+        let dir = tempfile::tempdir().unwrap();
+        let spec = CameraTruth {
+            seed,
+            hidden: Some(CameraHidden::Vignetting),
+            hidden2: Some(CameraHidden::Prnu),
+            magnitude: 3.0,
+            ..CameraTruth::default()
+        };
+        let s = run(dir.path(), &spec);
+        eprintln!("seed {seed}\n{}", describe(&s));
+        let acc = s.accepted();
+        let both = ["camera.vignetting", "camera.prnu"]
+            .iter()
+            .all(|w| acc.iter().any(|a| a == w));
+        let wrong: Vec<String> = physical(&s)
+            .into_iter()
+            .filter(|a| a != "camera.vignetting" && a != "camera.prnu")
+            .collect();
+        if !both || !wrong.is_empty() {
+            failures.push(format!("seed {seed}: accepted {acc:?}"));
+        }
+    }
+    assert!(failures.is_empty(), "{failures:?}");
+}
+
+#[test]
 fn look_alikes_on_a_single_exposure_design_tie() {
     // Read noise vs DSNU: no temporal pairs on single frames.
     let dir = tempfile::tempdir().unwrap();

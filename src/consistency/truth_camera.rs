@@ -102,6 +102,8 @@ pub struct CameraTruth {
     pub roi_grid: [usize; 2],
     pub roi_size: [usize; 2],
     pub hidden: Option<CameraHidden>,
+    /// A second hidden effect, present together with `hidden` (each scaled alone to `magnitude`).
+    pub hidden2: Option<CameraHidden>,
     /// Magnitude of the hidden effect in tolerances.
     pub magnitude: f64,
     /// Unknown black-level offset of the measured camera, DN.
@@ -128,6 +130,7 @@ impl Default for CameraTruth {
             roi_grid: [3, 3],
             roi_size: [32, 24],
             hidden: None,
+            hidden2: None,
             magnitude: 1.0,
             black_offset_dn: 2.5,
             gain_error: 0.0,
@@ -334,21 +337,32 @@ fn expected(
 /// Scales the hidden effect so that its largest centred contribution to the attribution quantity
 /// (ROI mean in DN, or ROI variance in % of the model's) is `magnitude` × the tolerance.
 fn hidden_side(spec: &CameraTruth) -> (Side, Side) {
-    let model = {
-        let mut m = BASE;
-        match spec.hidden {
-            Some(CameraHidden::ShotNoise) => m.shot = 0.0,
-            Some(CameraHidden::ReadNoise) => m.read_dn = 0.0,
-            Some(CameraHidden::Dsnu) => m.dsnu_dn = 0.0,
-            Some(CameraHidden::Prnu) => m.prnu = 0.0,
-            Some(CameraHidden::DarkCurrent) => m.dark_e_s = 0.0,
+    let hidden: Vec<CameraHidden> = spec.hidden.into_iter().chain(spec.hidden2).collect();
+    let mut model = BASE;
+    for h in &hidden {
+        match h {
+            CameraHidden::ShotNoise => model.shot = 0.0,
+            CameraHidden::ReadNoise => model.read_dn = 0.0,
+            CameraHidden::Dsnu => model.dsnu_dn = 0.0,
+            CameraHidden::Prnu => model.prnu = 0.0,
+            CameraHidden::DarkCurrent => model.dark_e_s = 0.0,
             _ => {}
         }
-        m
-    };
-    let Some(h) = spec.hidden else {
-        return (BASE, model);
-    };
+    }
+    // Each effect is scaled alone (on the model side) to its target contribution, then all are
+    // applied together.
+    let mut meas = model;
+    for &h in &hidden {
+        let m = hidden_magnitude(spec, &model, h);
+        meas = apply(meas, h, m);
+    }
+    (meas, model)
+}
+
+/// The magnitude parameter of `h` whose largest centred contribution (alone, over `model`) is
+/// `magnitude` × the tolerance of its quantity.
+fn hidden_magnitude(spec: &CameraTruth, model: &Side, h: CameraHidden) -> f64 {
+    let model = *model;
     let fr = frames(spec);
     let rs = rois(spec);
     // Tolerances as camera.rs derives them.
@@ -405,7 +419,7 @@ fn hidden_side(spec: &CameraTruth) -> (Side, Side) {
             hi = mid;
         }
     }
-    (apply(model, h, 0.5 * (lo + hi)), model)
+    0.5 * (lo + hi)
 }
 
 /// The measured side with the hidden effect at magnitude parameter `m` (monotone: larger m, larger
@@ -664,9 +678,15 @@ pub fn write_camera(dir: &Path, spec: &CameraTruth) -> Result<CameraFiles> {
     write_views(&files.sensor_view, fr.len())?;
     let run_id = format!(
         "camera-truth-{}-{}",
-        spec.hidden
-            .map(|h| format!("{h:?}"))
-            .unwrap_or("null".into()),
+        match (spec.hidden, spec.hidden2) {
+            (None, None) => "null".to_string(),
+            (a, b) => a
+                .into_iter()
+                .chain(b)
+                .map(|h| format!("{h:?}"))
+                .collect::<Vec<_>>()
+                .join("+"),
+        },
         spec.seed
     );
     std::fs::write(&files.toml, campaign_toml(spec, &run_id))?;
