@@ -265,7 +265,6 @@ pub struct StageTimes {
 
 /// The physical camera model.
 pub struct CameraSensor {
-    config: SensorConfig,
     camera: CameraConfig,
     effects: Effects,
     handshake: crate::world::Handshake,
@@ -297,7 +296,6 @@ impl CameraSensor {
         let recognition = CameraRecognition::new(&camera.recognition)?;
         Ok(CameraSensor {
             handshake: crate::world::Handshake::new(&config),
-            config,
             camera,
             effects,
             world: SensorWorld::new(),
@@ -388,7 +386,7 @@ impl SensorModel for CameraSensor {
     }
 
     fn config(&self) -> &SensorConfig {
-        &self.config
+        self.handshake.config()
     }
 
     fn view_configuration_request(&self) -> osi3::SensorViewConfiguration {
@@ -401,8 +399,7 @@ impl SensorModel for CameraSensor {
     ) -> Result<Vec<String>, ModelError> {
         let (notes, changed) = self.handshake.apply(granted)?;
         if changed {
-            self.config = self.handshake.config().clone();
-            self.chain = CameraChain::plan(&self.config, &self.camera, &self.effects)?;
+            self.chain = CameraChain::plan(self.handshake.config(), &self.camera, &self.effects)?;
         }
         Ok(notes)
     }
@@ -425,10 +422,10 @@ impl SensorModel for CameraSensor {
         };
         let cycle = self.cycle;
         self.cycle += 1;
-        let seed = self.config.seed.unwrap_or(0);
+        let seed = self.handshake.config().seed.unwrap_or(0);
         let frame = self.world.update(
             input.view,
-            &self.config,
+            self.handshake.config(),
             input.time_s,
             self.handshake.sensor_id(),
         )?;
@@ -452,7 +449,7 @@ impl SensorModel for CameraSensor {
             chain
                 .resolved
                 .pixel
-                .row_time_s(h, self.config.update_cycle_s)
+                .row_time_s(h, self.handshake.config().update_cycle_s)
         } else {
             0.0
         };
@@ -540,7 +537,7 @@ impl SensorModel for CameraSensor {
         };
         self.recognition.step(&rec_in, &mut moving, &mut b.divp);
         // The configured maximum detection range (`range_m`) bounds what recognition reports.
-        let range_m = self.config.range_m;
+        let range_m = self.handshake.config().range_m;
         b.divp.retain(|o| {
             o.longitudinal_distance_m
                 .unwrap_or(0.0)

@@ -618,7 +618,6 @@ pub fn sun_direction(env: Option<&osi3::EnvironmentalConditions>) -> DVec3 {
 
 /// The physical LiDAR sensor model.
 pub struct LidarSensor {
-    config: SensorConfig,
     lidar: LidarConfig,
     resolved: Resolved,
     effects: Effects,
@@ -648,7 +647,6 @@ impl LidarSensor {
         let recognition = LidarRecognition::new(&lidar.recognition)?;
         Ok(LidarSensor {
             handshake: crate::world::Handshake::new(&config),
-            config,
             lidar,
             resolved,
             effects,
@@ -704,7 +702,7 @@ impl SensorModel for LidarSensor {
     }
 
     fn config(&self) -> &SensorConfig {
-        &self.config
+        self.handshake.config()
     }
 
     fn view_configuration_request(&self) -> osi3::SensorViewConfiguration {
@@ -717,8 +715,12 @@ impl SensorModel for LidarSensor {
     ) -> Result<Vec<String>, ModelError> {
         let (notes, changed) = self.handshake.apply(granted)?;
         if changed {
-            self.config = self.handshake.config().clone();
-            self.engine = Self::plan(&self.config, &self.lidar, &self.resolved, &self.effects)?;
+            self.engine = Self::plan(
+                self.handshake.config(),
+                &self.lidar,
+                &self.resolved,
+                &self.effects,
+            )?;
         }
         Ok(notes)
     }
@@ -756,7 +758,7 @@ impl SensorModel for LidarSensor {
         self.cycle += 1;
         let frame = self.world.update(
             input.view,
-            &self.config,
+            self.handshake.config(),
             input.time_s,
             self.handshake.sensor_id(),
         )?;

@@ -105,7 +105,6 @@ const C0: f64 = 299_792_458.0;
 /// The physical radar sensor model: world → propagation paths → baseband chain → detections →
 /// recognition.
 pub struct RadarSensor {
-    config: SensorConfig,
     radar: RadarConfig,
     effects: Effects,
     handshake: crate::world::Handshake,
@@ -153,7 +152,6 @@ impl RadarSensor {
             handshake: crate::world::Handshake::new(&config),
             antennas: Antennas::new(&radar.front_end, &effects),
             seed: config.seed.unwrap_or(0),
-            config,
             radar,
             effects,
             world: SensorWorld::new(),
@@ -196,14 +194,17 @@ impl RadarSensor {
     pub fn propagate(&mut self, input: &StepInput<'_>) -> Result<&[PathReturn], ModelError> {
         let frame = self.world.update(
             input.view,
-            &self.config,
+            self.handshake.config(),
             input.time_s,
             self.handshake.sensor_id(),
         )?;
         self.propagator.compute(
             &frame,
-            (self.config.fov_horizontal_rad, self.config.fov_vertical_rad),
-            self.config.range_m,
+            (
+                self.handshake.config().fov_horizontal_rad,
+                self.handshake.config().fov_vertical_rad,
+            ),
+            self.handshake.config().range_m,
             &mut self.paths,
         );
         Ok(&self.paths)
@@ -245,7 +246,7 @@ impl SensorModel for RadarSensor {
     }
 
     fn config(&self) -> &SensorConfig {
-        &self.config
+        self.handshake.config()
     }
 
     fn view_configuration_request(&self) -> osi3::SensorViewConfiguration {
@@ -257,7 +258,6 @@ impl SensorModel for RadarSensor {
         granted: &osi3::SensorViewConfiguration,
     ) -> Result<Vec<String>, ModelError> {
         let (notes, _) = self.handshake.apply(granted)?;
-        self.config = self.handshake.config().clone();
         Ok(notes)
     }
 
@@ -286,14 +286,17 @@ impl SensorModel for RadarSensor {
         self.cycle += 1;
         let frame = self.world.update(
             input.view,
-            &self.config,
+            self.handshake.config(),
             input.time_s,
             self.handshake.sensor_id(),
         )?;
         self.propagator.compute(
             &frame,
-            (self.config.fov_horizontal_rad, self.config.fov_vertical_rad),
-            self.config.range_m,
+            (
+                self.handshake.config().fov_horizontal_rad,
+                self.handshake.config().fov_vertical_rad,
+            ),
+            self.handshake.config().range_m,
             &mut self.paths,
         );
         self.chain_out.clear();
