@@ -6,7 +6,7 @@
 
 use osiris_models::camera::isp::{
     CIE1931_XYZ_10NM, ColourCorrection, D65_10NM, Demosaic, Isp, IspConfig, ToneMap, WhiteBalance,
-    XYZ_TO_LINEAR_SRGB, demosaic, tone_curve,
+    XYZ_TO_LINEAR_SRGB, demosaic, tone_curve, tone_curve_f32,
 };
 use osiris_models::camera::{
     BLUE, Cfa, ChannelImage, GREEN, RED, RawImage, RgbImage, SpectralBands, SpectralResponse,
@@ -402,6 +402,12 @@ fn tone_map_is_monotonic() {
         for i in 0..=20_000 {
             let x = i as f64 * 1e-3;
             let y = tone_curve(mode, 4.0, x);
+            // The per-pixel f32 path agrees with the f64 curve far below one 8-bit step.
+            let y32 = f64::from(tone_curve_f32(mode, 4.0, x as f32));
+            assert!(
+                (y32 - y).abs() < 1e-5,
+                "{mode:?} at {x}: f32 {y32} vs f64 {y}"
+            );
             assert!(y >= last, "{mode:?} at {x}");
             assert!((0.0..=1.0).contains(&y));
             last = y;

@@ -10,19 +10,17 @@
 //! lens, pixel model with the preset's 3-exposure HDR, HDR merge and companding, ISP, recognition,
 //! OSI output), on a rayon pool of `threads` threads; the scene build is in the first (warm-up)
 //! step and not timed. The JSON reports the median frame rate and the cost split of the median
-//! frame from [`CameraSensor::times`] and [`super::render::RenderStats`].
+//! frame from [`CameraSensor::times`] (with the renderer's own [`super::render::RenderStats`]:
+//! camera rays, shadow rays, moving-object re-traces, shading).
 
 use std::time::Instant;
 
 use serde_json::{Value, json};
 
-use super::render::{RenderInput, RenderOutput, RenderStats};
-use super::{CameraChain, CameraConfig, CameraSensor, ShutterTiming};
-use crate::effects::Effects;
+use super::{CameraConfig, CameraSensor};
 use crate::sensor::{
     ModelMode, Mounting, SensorConfig, SensorKind, SensorModel, StepInput, StepOutput,
 };
-use crate::world::SensorWorld;
 use osiris_proto::{id, osi3};
 
 /// Target of the issue: frames/s of a 1280 × 960 frame on 2 threads.
@@ -335,12 +333,7 @@ pub fn bench_camera_with(
     }
     per_frame.sort_by(|a, b| a.0.total_cmp(&b.0));
     let (median, times) = per_frame[per_frame.len() / 2];
-    // The renderer's own split (rays vs shading) from a render-only pass on the same frames: the
-    // sensor keeps its render output private.
-    let stats = match pool.install(|| render_split(scene, &config, frames)) {
-        Ok(s) => s,
-        Err(e) => return json!({ "error": e }),
-    };
+    let r = times.render;
     json!({
         "frames_per_s": 1.0 / median,
         "target_frames_per_s": TARGET_FPS,
@@ -351,10 +344,12 @@ pub fn bench_camera_with(
         "frame_s": median,
         "first_frame_s": build_s,
         "render_s": times.render_s,
-        "trace_s": stats.trace_s,
-        "shading_s": stats.shading_s,
-        "render_only_s": stats.trace_s + stats.shading_s,
-        "rays": stats.rays,
+        "rays": r.rays,
+        "trace_s": r.trace_s,
+        "camera_rays_s": r.camera_rays_s,
+        "shadow_rays_s": r.shadow_rays_s,
+        "moving_objects_s": r.moving_objects_s,
+        "shading_s": r.shading_s,
         "lens_s": times.lens_s,
         "pixel_s": times.pixel_s,
         "isp_s": times.isp_s,
@@ -362,52 +357,4 @@ pub fn bench_camera_with(
         "moving_objects": scene.vehicles,
         "buildings": 2 * scene.buildings_per_side,
     })
-}
-
-/// Median render-only cost split over `frames` frames (after one warm-up frame).
-fn render_split(
-    scene: &CameraBenchScene,
-    config: &SensorConfig,
-    frames: usize,
-) -> Result<RenderStats, String> {
-    let camera = config.camera.clone().unwrap_or_default();
-    let effects = Effects::with_switches(&crate::effects::catalogue(), &config.effects)
-        .map_err(|e| e.to_string())?;
-    let mut chain = CameraChain::plan(config, &camera, &effects).map_err(|e| e.to_string())?;
-    let mut world = SensorWorld::new();
-    let mut out = RenderOutput::default();
-    let (w, h) = (chain.resolved.width, chain.resolved.height);
-    let row_time_s = chain.resolved.pixel.row_time_s(h, config.update_cycle_s);
-    let mut all = Vec::with_capacity(frames);
-    for f in 0..=frames {
-        let t_s = 1.0 + f as f64 / 30.0;
-        let view = street_view(scene, t_s);
-        let gt = view.global_ground_truth.as_ref().ok_or("no ground truth")?;
-        let frame = world
-            .update(&view, config, t_s, None)
-            .map_err(|e| e.to_string())?;
-        let timing = ShutterTiming {
-            frame_time_s: frame.time_s,
-            row_time_s,
-            start_offset_s: 0.0,
-            exposure_s: 0.01,
-        };
-        let input = RenderInput {
-            frame: &frame,
-            rays: chain.lens.ray_directions(),
-            width: w,
-            height: h,
-            response: &chain.response,
-            timing,
-            ground_truth: gt,
-            seed: 1,
-            cycle: f as u64,
-        };
-        chain.renderer.render(&input, &mut out);
-        if f > 0 {
-            all.push(out.stats);
-        }
-    }
-    all.sort_by(|a, b| (a.trace_s + a.shading_s).total_cmp(&(b.trace_s + b.shading_s)));
-    Ok(all[all.len() / 2])
 }

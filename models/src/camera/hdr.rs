@@ -363,7 +363,8 @@ impl HdrPipeline {
                 let rows = &rows[..captures.len()];
                 for (x, o) in row.iter_mut().enumerate() {
                     let e = merge_pixel(plan, rows, x);
-                    *o = (b0 + e * g0).round().clamp(0.0, out_max) as u32;
+                    // Round half up within [0, out_max] (`as` truncates).
+                    *o = ((b0 + e * g0).clamp(0.0, out_max) + 0.5) as u32;
                 }
             });
     }
@@ -392,7 +393,8 @@ impl HdrPipeline {
             .zip(linear.data.par_chunks(4096))
             .for_each(|(o, l)| {
                 for (o, &v) in o.iter_mut().zip(l) {
-                    *o = self.compand_value(f64::from(v)).floor().clamp(0.0, max) as u32;
+                    // Floor of a non-negative value: `as` truncates.
+                    *o = self.compand_value(f64::from(v)).clamp(0.0, max) as u32;
                 }
             });
     }

@@ -69,7 +69,7 @@ use std::collections::HashMap;
 use std::f64::consts::PI;
 use std::sync::Mutex;
 
-use glam::{DVec3, Vec3};
+use glam::{DMat3, DVec3, Vec3};
 use osiris_proto::osi3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -292,11 +292,22 @@ pub struct SunInView {
     pub solid_angle_sr: f64,
 }
 
-/// Cost split of one render, s of wall-clock time.
+/// Cost split of one render, s of wall-clock time (ray-tracing shares: time summed over the worker
+/// threads divided by their number).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RenderStats {
+    /// Rays traced: camera rays (and motion-blur time samples, bounce rays), glass crossings,
+    /// shadow rays, moving-object re-traces.
     pub rays: u64,
+    /// All ray tracing.
     pub trace_s: f64,
+    /// Of which camera rays, motion-blur samples and diffuse bounces.
+    pub camera_rays_s: f64,
+    /// Of which shadow rays (sun and lamps).
+    pub shadow_rays_s: f64,
+    /// Of which the re-traces of moving objects at each row's time (rolling shutter).
+    pub moving_objects_s: f64,
+    /// The rest: spectral shading, ray generation, glass, motion-blur bookkeeping.
     pub shading_s: f64,
 }
 
@@ -430,7 +441,33 @@ struct Mover {
     centre: DVec3,
     radius: f64,
     velocity: DVec3,
+    /// |velocity|, m/s.
+    speed: f64,
+    /// Scene → mesh rotation (transpose of the pose's).
+    to_local: DMat3,
+    /// Mesh bounds (mesh frame, padded 5 cm), m.
+    lo: DVec3,
+    hi: DVec3,
 }
+
+impl Mover {
+    /// Whether the ray from `origin` along `dir` meets the mover's box (at frame time) within
+    /// `[0, t_max]` (slab test in the mesh frame).
+    fn ray_meets_box(&self, origin: DVec3, dir: DVec3, t_max: f64) -> bool {
+        let o = self.to_local * (origin - self.centre);
+        let d = self.to_local * dir;
+        let inv = d.recip();
+        let t0 = (self.lo - o) * inv;
+        let t1 = (self.hi - o) * inv;
+        let near = t0.min(t1).max_element().max(0.0);
+        let far = t0.max(t1).min_element().min(t_max);
+        // NaN (0·∞ for a ray in a slab plane) is unordered: treat as a meet.
+        near.partial_cmp(&far) != Some(std::cmp::Ordering::Greater)
+    }
+}
+
+/// A cone: unit axis, cos and sin of the half-angle.
+type Cone = (DVec3, f64, f64);
 
 struct GlassModel<'a> {
     mats: &'a MaterialDb,
@@ -498,11 +535,20 @@ struct Scratch {
     blur: Vec<Sample>,
     flicker: Vec<FlickerSample>,
     pairs: Vec<(u32, u32)>,
+    /// Per mover: (index, cone of its swept bounding sphere: axis, cos α, sin α).
+    cones: Vec<(u32, Option<Cone>)>,
+    /// Whether item i's frame-time hit is a displaced mover.
+    moved: Vec<bool>,
     flags: Vec<bool>,
     blur_idx: Vec<u32>,
     hits2: Vec<Option<Hit>>,
+    hits3: Vec<Option<Hit>>,
+    touched: Vec<bool>,
     dist: Vec<f64>,
     trace_s: f64,
+    camera_s: f64,
+    shadow_s: f64,
+    movers_s: f64,
     rays_n: u64,
 }
 
@@ -706,16 +752,21 @@ impl Renderer {
             .enumerate()
             .filter(|(_, i)| i.velocity_m_s.length() > 1e-3)
             .map(|(k, i)| {
-                let radius = frame.scene.meshes[i.mesh]
+                let (lo, hi) = frame.scene.meshes[i.mesh]
                     .mesh
                     .bounds()
-                    .map(|(lo, hi)| lo.as_dvec3().abs().max(hi.as_dvec3().abs()).length())
-                    .unwrap_or(0.0);
+                    .map(|(lo, hi)| (lo.as_dvec3(), hi.as_dvec3()))
+                    .unwrap_or((DVec3::ZERO, DVec3::ZERO));
+                let radius = lo.abs().max(hi.abs()).length();
                 Mover {
                     instance: k as u32,
                     centre: i.pose_local.position,
                     radius: radius + 0.05,
                     velocity: i.velocity_m_s,
+                    speed: i.velocity_m_s.length(),
+                    to_local: i.pose_local.rotation.transpose(),
+                    lo: lo - DVec3::splat(0.05),
+                    hi: hi + DVec3::splat(0.05),
                 }
             })
             .collect();
@@ -788,7 +839,7 @@ impl Renderer {
         let rows_per_task = (4096 / w.max(1)).clamp(1, 64);
         let chunk = rows_per_task * w;
         let flicker_all = Mutex::new(Vec::<FlickerSample>::new());
-        let stats = Mutex::new((0f64, 0u64));
+        let stats = Mutex::new(([0f64; 4], 0u64));
         let [p0, p1, p2] = &mut out.radiance.planes;
         p0.par_chunks_mut(chunk)
             .zip(p1.par_chunks_mut(chunk))
@@ -952,10 +1003,15 @@ impl Renderer {
                         .extend_from_slice(&s.flicker);
                 }
                 let mut st = stats.lock().expect("stats");
-                st.0 += s.trace_s;
-                st.1 += s.rays_n;
-                s.trace_s = 0.0;
-                s.rays_n = 0;
+                for (a, b) in st.0.iter_mut().zip([
+                    &mut s.trace_s,
+                    &mut s.camera_s,
+                    &mut s.shadow_s,
+                    &mut s.movers_s,
+                ]) {
+                    *a += std::mem::take(b);
+                }
+                st.1 += std::mem::take(&mut s.rays_n);
                 drop(st);
                 s.items = items;
                 s.samples = samples;
@@ -998,12 +1054,15 @@ impl Renderer {
             }
             *idx = last.1;
         }
-        let (trace_s, rays) = stats.into_inner().expect("stats");
+        let ([trace_s, camera_s, shadow_s, movers_s], rays) = stats.into_inner().expect("stats");
         let total = t_start.elapsed().as_secs_f64();
         // Per-task trace time summed over threads; scale to wall-clock share.
         let threads = rayon::current_num_threads().max(1) as f64;
         out.stats.rays = rays;
         out.stats.trace_s = (trace_s / threads).min(total);
+        out.stats.camera_rays_s = camera_s / threads;
+        out.stats.shadow_rays_s = shadow_s / threads;
+        out.stats.moving_objects_s = movers_s / threads;
         out.stats.shading_s = (total - out.stats.trace_s).max(0.0);
     }
 }
@@ -1011,6 +1070,24 @@ impl Renderer {
 impl Ctx<'_> {
     fn row(&self, r: usize) -> &[f32] {
         &self.table[r * self.nl..(r + 1) * self.nl]
+    }
+
+    /// The static-world element that triangle `t` belongs to: its triangle range and its
+    /// ground-truth object id (`u64::MAX` if it is not an object).
+    fn static_owner(&self, t: u32) -> (u32, u32, u64) {
+        let owners = &self.frame.scene.static_owners;
+        let i = owners.partition_point(|o| o.first_triangle <= t);
+        match i.checked_sub(1).and_then(|i| owners.get(i)) {
+            Some(o) if t < o.first_triangle + o.triangle_count => {
+                let id = match o.element {
+                    StaticElement::Object(id) if id != osiris_proto::INVALID_ID => id,
+                    _ => u64::MAX,
+                };
+                (o.first_triangle, o.first_triangle + o.triangle_count, id)
+            }
+            // Not owned: an empty range (looked up again next time).
+            _ => (0, 0, u64::MAX),
+        }
     }
 
     /// Angular size of a pixel near `pixel`, rad.
@@ -1039,9 +1116,11 @@ impl Ctx<'_> {
         if which {
             s.hits.resize(s.rays.len(), None);
             self.frame.space.trace_batch(&s.rays, &mut s.hits);
+            s.camera_s += t.elapsed().as_secs_f64();
         } else {
             s.socc.resize(s.srays.len(), false);
             self.frame.space.occluded_batch(&s.srays, &mut s.socc);
+            s.shadow_s += t.elapsed().as_secs_f64();
         }
         s.trace_s += t.elapsed().as_secs_f64();
         s.rays_n += if which { s.rays.len() } else { s.srays.len() } as u64;
@@ -1129,6 +1208,7 @@ impl Ctx<'_> {
         s.pend.clear();
         s.srays.clear();
         let sky_l = self.rows.sky_l();
+        let mut owner = (0u32, 0u32, u64::MAX);
         for i in 0..n {
             let ray = s.rays[i];
             let first = s.first[i];
@@ -1140,10 +1220,14 @@ impl Ctx<'_> {
                 smp.depth = f.distance_m as f32;
                 smp.object = match f.object_id {
                     Some(id) => id,
-                    None => match self.frame.scene.static_element(f.triangle) {
-                        Some(StaticElement::Object(id)) if id != osiris_proto::INVALID_ID => id,
-                        _ => u64::MAX,
-                    },
+                    None => {
+                        // Neighbouring pixels mostly hit the same static element: look its
+                        // triangle range up once.
+                        if !(owner.0..owner.1).contains(&f.triangle) {
+                            owner = self.static_owner(f.triangle);
+                        }
+                        owner.2
+                    }
                 };
                 let v_rel = f.velocity_m_s - self.frame.sensor_point_velocity(f.point);
                 let perp = v_rel - ray.direction * v_rel.dot(ray.direction);
@@ -1453,25 +1537,52 @@ impl Ctx<'_> {
 
     /// Re-trace rays that meet a moving instance at the item's time (origin shifted by −v·Δt).
     fn displace_movers(&self, items: &[Item], s: &mut Scratch) {
-        const GROUP: usize = 32;
+        const GROUP: usize = 64;
         let n = items.len();
-        let mut start = 0;
         s.srays.clear();
         s.idx.clear();
         s.cand.clear();
         s.pairs.clear();
+        if n == 0 {
+            return;
+        }
+        // Bounding sphere of each mover's sweep seen from the items' origins (all within a ball
+        // of radius `o_r` about `o`): the cone towards it (unit axis `u`, half-angle α), or
+        // `None` when the origins may lie inside the sphere. Per call, not per group.
+        let mut o_lo = DVec3::splat(f64::INFINITY);
+        let mut o_hi = DVec3::splat(f64::NEG_INFINITY);
+        let mut dt_max: f64 = 0.0;
+        for (ray, it) in s.rays.iter().zip(items) {
+            o_lo = o_lo.min(ray.origin);
+            o_hi = o_hi.max(ray.origin);
+            dt_max = dt_max.max(it.dt.abs());
+        }
+        let o = 0.5 * (o_lo + o_hi);
+        let o_r = 0.5 * (o_hi - o_lo).length();
+        s.cones.clear();
+        for (k, mv) in self.movers.iter().enumerate() {
+            if mv.speed * dt_max < 1e-3 {
+                continue;
+            }
+            let rad = mv.radius + mv.speed * dt_max + o_r;
+            let c = mv.centre - o;
+            let dist = c.length();
+            let cone = (dist > rad).then(|| {
+                let sin_a = rad / dist;
+                (c / dist, (1.0 - sin_a * sin_a).sqrt(), sin_a)
+            });
+            s.cones.push((k as u32, cone));
+        }
+        if s.cones.is_empty() {
+            return;
+        }
+        let mut start = 0;
         while start < n {
             let end = (start + GROUP).min(n);
-            // Cone of the group.
+            // Cone of the group's directions.
             let mut axis = DVec3::ZERO;
-            let mut o_lo = DVec3::splat(f64::INFINITY);
-            let mut o_hi = DVec3::splat(f64::NEG_INFINITY);
-            let mut dt_max: f64 = 0.0;
             for i in start..end {
                 axis += s.rays[i].direction;
-                o_lo = o_lo.min(s.rays[i].origin);
-                o_hi = o_hi.max(s.rays[i].origin);
-                dt_max = dt_max.max(items[i].dt.abs());
             }
             let axis = axis.normalize_or_zero();
             let cos_half = (start..end)
@@ -1479,52 +1590,47 @@ impl Ctx<'_> {
                 .fold(1.0f64, f64::min)
                 .clamp(-1.0, 1.0);
             let sin_half = (1.0 - cos_half * cos_half).max(0.0).sqrt();
-            let o = 0.5 * (o_lo + o_hi);
-            let o_r = 0.5 * (o_hi - o_lo).length();
             s.cand.clear();
-            for (k, mv) in self.movers.iter().enumerate() {
-                if mv.velocity.length() * dt_max < 1e-3 {
-                    continue;
-                }
-                let rad = mv.radius + mv.velocity.length() * dt_max + o_r;
-                let c = mv.centre - o;
-                let dist = c.length();
-                if dist <= rad {
-                    s.cand.push(k as u32);
-                    continue;
-                }
-                // The sphere's cone (half-angle α, sin α = rad/dist) meets the group's cone
-                // (half-angle `half`) when the angle between the axes is ≤ half + α, i.e. (both
+            for &(k, cone) in &s.cones {
+                // The two cones meet when the angle between their axes is ≤ half + α, i.e. (both
                 // below π) cos(angle) ≥ cos(half + α) = cos half cos α − sin half sin α.
-                let cos_ang = (c / dist).dot(axis);
-                let sin_a = (rad / dist).min(1.0);
-                let cos_a = (1.0 - sin_a * sin_a).sqrt();
-                if cos_ang >= cos_half * cos_a - sin_half * sin_a {
-                    s.cand.push(k as u32);
+                let meets = cone.is_none_or(|(u, cos_a, sin_a)| {
+                    u.dot(axis) >= cos_half * cos_a - sin_half * sin_a
+                });
+                if meets {
+                    s.cand.push(k);
                 }
             }
             if !s.cand.is_empty() {
-                for i in start..end {
-                    let ray = s.rays[i];
-                    for &k in &s.cand {
-                        let mv = &self.movers[k as usize];
+                // Mover-major: a mover's rays are consecutive (packets in the re-trace).
+                for &k in &s.cand {
+                    let mv = &self.movers[k as usize];
+                    for i in start..end {
+                        let ray = s.rays[i];
                         let shift = mv.velocity * items[i].dt;
                         if shift.length_squared() < 1e-6 {
                             continue;
                         }
-                        // Ray from the shifted origin against the frame-time sphere (always when
+                        // Ray from the shifted origin against the frame-time box (always when
                         // the frame-time hit is on this object: it may have moved off the ray).
-                        let oc = ray.origin - shift - mv.centre;
-                        let bq = oc.dot(ray.direction);
-                        let cq = oc.length_squared() - mv.radius * mv.radius;
                         let on_it = s.hits[i].is_some_and(|h| h.instance == Some(mv.instance));
-                        if !on_it && cq > 0.0 && (bq > 0.0 || bq * bq - cq < 0.0) {
-                            continue;
+                        if !on_it {
+                            // Bounding sphere first (cheap), then the box.
+                            let oc = ray.origin - shift - mv.centre;
+                            let bq = oc.dot(ray.direction);
+                            let cq = oc.length_squared() - mv.radius * mv.radius;
+                            if cq > 0.0 && (bq > 0.0 || bq * bq - cq < 0.0) {
+                                continue;
+                            }
+                            if !mv.ray_meets_box(ray.origin - shift, ray.direction, ray.t_max) {
+                                continue;
+                            }
                         }
                         let mut r2 = ray;
                         r2.origin = ray.origin - shift;
                         s.srays.push(r2);
                         s.pairs.push((i as u32, k));
+                        s.idx.push(mv.instance);
                     }
                 }
             }
@@ -1534,36 +1640,63 @@ impl Ctx<'_> {
             return;
         }
         let t = std::time::Instant::now();
+        let space = &self.frame.space;
+        // Each candidate mover alone, at the item's time: the ray from the shifted origin against
+        // that instance's own BVH (the rest of the scene does not move with it). `s.hits2[i]`: the
+        // nearest mover hit of ray i; `s.moved[i]`: ray i's frame-time hit is a candidate mover.
+        s.hits3.clear();
+        s.hits3.resize(s.srays.len(), None);
+        space.closest_hits_on_instances(&s.srays, &s.idx, &mut s.hits3);
         s.hits2.clear();
-        s.hits2.resize(s.srays.len(), None);
-        self.frame.space.trace_batch(&s.srays, &mut s.hits2);
-        s.trace_s += t.elapsed().as_secs_f64();
-        s.rays_n += s.srays.len() as u64;
-        for (&(i, k), &h2) in s.pairs.iter().zip(&s.hits2) {
+        s.hits2.resize(n, None);
+        s.moved.clear();
+        s.moved.resize(n, false);
+        s.touched.clear();
+        s.touched.resize(n, false);
+        for (&(i, k), &h) in s.pairs.iter().zip(&s.hits3) {
             let i = i as usize;
+            s.touched[i] = true;
             let mv = &self.movers[k as usize];
-            let ray = s.rays[i];
-            let cur = s.hits[i];
-            let cur_is_mover = cur.is_some_and(|h| h.instance == Some(mv.instance));
-            match h2 {
-                Some(mut h)
-                    if h.instance == Some(mv.instance)
-                        && (cur_is_mover || cur.is_none_or(|c| h.distance_m < c.distance_m)) =>
-                {
-                    h.point = ray.at(h.distance_m);
-                    s.hits[i] = Some(h);
-                }
-                other if cur_is_mover => {
-                    // The object has moved away from this ray: what the shifted ray sees instead
-                    // (static geometry off by v·Δt, first order).
-                    s.hits[i] = other.map(|mut h| {
-                        h.point = ray.at(h.distance_m);
-                        h
-                    });
-                }
-                _ => {}
+            if s.hits[i].is_some_and(|h| h.instance == Some(mv.instance)) {
+                s.moved[i] = true;
+            }
+            if let Some(mut h) = h
+                && s.hits2[i].is_none_or(|b| h.distance_m < b.distance_m)
+            {
+                h.point = s.rays[i].at(h.distance_m);
+                s.hits2[i] = Some(h);
             }
         }
+        let mut traced = s.pairs.len() as u64;
+        for i in 0..n {
+            if !s.touched[i] {
+                continue;
+            }
+            let cur = s.hits[i];
+            let best = s.hits2[i];
+            let nearer = |a: Option<Hit>, b: Option<Hit>| match (a, b) {
+                (Some(x), Some(y)) => Some(if y.distance_m < x.distance_m { y } else { x }),
+                (x, None) => x,
+                (None, y) => y,
+            };
+            s.hits[i] = match cur {
+                // The frame-time hit is a mover that has moved: nothing lay in front of it, so a
+                // displaced mover at or before that distance is the answer; else what lies behind
+                // it (the scene without that instance) or a farther displaced mover.
+                Some(c) if s.moved[i] => match best {
+                    Some(b) if b.distance_m <= c.distance_m => Some(b),
+                    _ => {
+                        traced += 1;
+                        let inst = c.instance.expect("a mover is an instance");
+                        nearer(space.closest_hit_excluding(&s.rays[i], inst), best)
+                    }
+                },
+                _ => nearer(cur, best),
+            };
+        }
+        s.trace_s += t.elapsed().as_secs_f64();
+        s.movers_s += t.elapsed().as_secs_f64();
+        s.rays_n += traced;
         s.srays.clear();
     }
 }

@@ -257,6 +257,8 @@ struct Buffers {
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct StageTimes {
     pub render_s: f64,
+    /// The renderer's own split of `render_s`.
+    pub render: super::render::RenderStats,
     pub lens_s: f64,
     pub pixel_s: f64,
     pub isp_s: f64,
@@ -474,6 +476,7 @@ impl SensorModel for CameraSensor {
         };
         chain.renderer.render(&rin, &mut b.render);
         self.times.render_s = t.elapsed().as_secs_f64();
+        self.times.render = b.render.stats;
 
         let t = std::time::Instant::now();
         chain.lens.apply(

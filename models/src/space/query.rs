@@ -68,6 +68,17 @@ fn coherent(rays: &[Ray; 4]) -> bool {
         .all(|r| (r.origin - o).abs().max_element() <= 1e-3 && r.direction.dot(d) >= 0.99)
 }
 
+/// Whether four occlusion rays are worth tracing as a packet: [`coherent`], or (nearly) parallel
+/// rays from nearby points (shadow rays towards the sun from neighbouring pixels' surface points:
+/// origins within 0.5 m, directions within ≈ 8°).
+#[inline(always)]
+fn coherent_occlusion(rays: &[Ray; 4]) -> bool {
+    let (o, d) = (rays[0].origin, rays[0].direction);
+    rays[1..]
+        .iter()
+        .all(|r| (r.origin - o).abs().max_element() <= 0.5 && r.direction.dot(d) >= 0.99)
+}
+
 /// Whether the CPU has AVX2 and FMA (cached by std after the first call).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
@@ -104,6 +115,12 @@ impl Space {
     /// Closest surface on the ray (static world first, then the instances it could still hit).
     #[inline(always)]
     pub(crate) fn closest_raw(&self, ray: &obvhs::ray::Ray) -> Option<RawHit> {
+        self.closest_raw_skipping(ray, None)
+    }
+
+    /// [`Space::closest_raw`] with one instance left out (`skip`).
+    #[inline(always)]
+    fn closest_raw_skipping(&self, ray: &obvhs::ray::Ray, skip: Option<u32>) -> Option<RawHit> {
         let mut r = *ray;
         let mut best = None;
         if let Some((t, prim)) = self.static_blas.closest(&r) {
@@ -119,6 +136,9 @@ impl Space {
         }
         // Into the instance's mesh frame, then its BLAS; `t` is unchanged by the rigid transform.
         let blas_hit = |i: u32, tr: &obvhs::ray::Ray| {
+            if Some(i) == skip {
+                return None;
+            }
             let inst = &self.instances[i as usize];
             self.meshes[inst.desc.mesh.0 as usize].closest(&mesh_ray(inst, tr))
         };
@@ -313,6 +333,102 @@ impl Space {
         }
     }
 
+    /// The closest surface of instance `instance` (index in the last [`Space::set_instances`] call)
+    /// on the ray, the rest of the scene ignored; `None` if the ray misses it or there is no such
+    /// instance. One bottom-level traversal: the cheap re-trace of a single moving object at
+    /// another time (rolling shutter).
+    pub fn closest_hit_on_instance(&self, ray: &Ray, instance: u32) -> Option<Hit> {
+        let inst = self.instances.get(instance as usize)?;
+        let r = f32_ray(ray);
+        let (t, prim) = self.meshes[inst.desc.mesh.0 as usize].closest(&mesh_ray(inst, &r))?;
+        Some(self.finish_hit(ray, RawHit { t, instance, prim }))
+    }
+
+    /// [`Space::closest_hit_on_instance`] for a run of rays, ray `j` against instance
+    /// `instances[j]` (`out[j]`); four consecutive coherent rays against the same instance are
+    /// traced as one packet ([`Space::trace_batch`] explains coherence). Runs on the calling thread.
+    /// Panics if the lengths differ.
+    pub fn closest_hits_on_instances(
+        &self,
+        rays: &[Ray],
+        instances: &[u32],
+        out: &mut [Option<Hit>],
+    ) {
+        assert!(
+            rays.len() == instances.len() && rays.len() == out.len(),
+            "closest_hits_on_instances: {} rays, {} instances, {} outputs",
+            rays.len(),
+            instances.len(),
+            out.len()
+        );
+        #[inline(always)]
+        fn body(space: &Space, rays: &[Ray], instances: &[u32], out: &mut [Option<Hit>]) {
+            let mut j = 0;
+            while j < rays.len() {
+                let k = instances[j];
+                let Some(inst) = space.instances.get(k as usize) else {
+                    out[j] = None;
+                    j += 1;
+                    continue;
+                };
+                let blas = &space.meshes[inst.desc.mesh.0 as usize];
+                if j + 4 <= rays.len() && instances[j..j + 4].iter().all(|&i| i == k) {
+                    let group: &[Ray; 4] = rays[j..j + 4].try_into().expect("four rays");
+                    if coherent(group) {
+                        let mut local = Packet::new(&group.map(|r| f32_ray(&r)))
+                            .transformed(&inst.scene_to_mesh);
+                        let mut prim = [u32::MAX; 4];
+                        blas.closest4(&mut local, &mut prim);
+                        for l in 0..4 {
+                            out[j + l] = (prim[l] != u32::MAX).then(|| {
+                                space.finish_hit(
+                                    &group[l],
+                                    RawHit {
+                                        t: local.tmax[l],
+                                        instance: k,
+                                        prim: prim[l],
+                                    },
+                                )
+                            });
+                        }
+                        j += 4;
+                        continue;
+                    }
+                }
+                let r = f32_ray(&rays[j]);
+                out[j] = blas.closest(&mesh_ray(inst, &r)).map(|(t, prim)| {
+                    space.finish_hit(
+                        &rays[j],
+                        RawHit {
+                            t,
+                            instance: k,
+                            prim,
+                        },
+                    )
+                });
+                j += 1;
+            }
+        }
+        #[cfg(target_arch = "x86_64")]
+        {
+            #[target_feature(enable = "avx2,fma")]
+            fn avx2(space: &Space, rays: &[Ray], instances: &[u32], out: &mut [Option<Hit>]) {
+                body(space, rays, instances, out)
+            }
+            if avx2_fma() {
+                // SAFETY: the CPU supports AVX2 and FMA (checked at run time just above).
+                return unsafe { avx2(self, rays, instances, out) };
+            }
+        }
+        body(self, rays, instances, out)
+    }
+
+    /// The closest surface on the ray with instance `instance` left out (what lies behind it).
+    pub fn closest_hit_excluding(&self, ray: &Ray, instance: u32) -> Option<Hit> {
+        self.closest_raw_skipping(&f32_ray(ray), Some(instance))
+            .map(|raw| self.finish_hit(ray, raw))
+    }
+
     /// The closest surface on the ray within `[t_min, t_max]`.
     #[inline]
     pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
@@ -381,7 +497,7 @@ impl Space {
             let mut outs = out.chunks_exact_mut(4);
             for (group, out) in (&mut groups).zip(&mut outs) {
                 let group: &[Ray; 4] = group.try_into().expect("chunks of 4");
-                if coherent(group) {
+                if coherent_occlusion(group) {
                     out.copy_from_slice(&space.occluded_raw4(&group.map(|r| f32_ray(&r))));
                 } else {
                     for (ray, o) in group.iter().zip(out) {
