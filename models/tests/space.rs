@@ -904,3 +904,128 @@ mod from_scene {
         assert_eq!((stats.static_builds, stats.tlas_builds), (1, 2));
     }
 }
+
+/// One instance alone (`closest_hit_on_instance`, single and in packets) and the scene without it
+/// (`closest_hit_excluding`) against closed forms: the slab distances of the rotated box in its own
+/// frame, and the ground plane `t = h/(−d_z)` behind it.
+#[test]
+fn instance_only_and_instance_excluded_queries_match_closed_forms() {
+    for kind in KINDS {
+        let mut b = SpaceBuilder::new().bvh_kind(kind);
+        b.add_static(&ground(60.0, 8), &[GROUND]).unwrap();
+        let h = b.add_mesh(&unit_box(2), &[PAINT]).unwrap();
+        let mut space = b.build();
+        let (centre, yaw) = (DVec3::new(10.0, 0.5, 1.0), 0.3);
+        space.set_instances(&[instance(7, h, centre, yaw)]).unwrap();
+        let rot = DMat3::from_rotation_z(yaw);
+        let origin = DVec3::new(0.0, 0.0, 1.5);
+        let mut rng = Rng(21);
+        // Four-ray groups of neighbouring directions (packets) aimed around the box.
+        let mut rays = Vec::new();
+        for _ in 0..300 {
+            let target = centre
+                + DVec3::new(
+                    rng.range(-2.0, 2.0),
+                    rng.range(-2.0, 2.0),
+                    rng.range(-2.0, 1.5),
+                );
+            let d = (target - origin).normalize();
+            for k in 0..4 {
+                let e = DVec3::new(0.0, 1e-3 * k as f64, -1e-3 * k as f64);
+                rays.push(Ray::new(origin, d + e).with_t_max(100.0));
+            }
+        }
+        let instances = vec![0u32; rays.len()];
+        let mut batch = vec![None; rays.len()];
+        space.closest_hits_on_instances(&rays, &instances, &mut batch);
+        let (mut on_box, mut on_ground) = (0, 0);
+        for (i, ray) in rays.iter().enumerate() {
+            // The box alone: slab test in the box frame (rigid: distances unchanged).
+            let o_local = rot.transpose() * (ray.origin - centre);
+            let d_local = rot.transpose() * ray.direction;
+            let expected = slab(o_local, d_local, DVec3::splat(-1.0), DVec3::splat(1.0))
+                .filter(|&(t0, _)| t0 > 0.0)
+                .map(|(t0, _)| t0);
+            let single = space.closest_hit_on_instance(ray, 0);
+            match (expected, single, batch[i]) {
+                (None, None, None) => {}
+                (Some(t), Some(a), Some(p)) => {
+                    on_box += 1;
+                    assert!(
+                        close(a.distance_m, t, 1e-9 * (1.0 + t)),
+                        "ray {i}: {} vs {t}",
+                        a.distance_m
+                    );
+                    assert!(
+                        close(p.distance_m, t, 1e-9 * (1.0 + t)),
+                        "ray {i}: packet {} vs {t}",
+                        p.distance_m
+                    );
+                    assert_eq!((a.object_id, p.object_id), (Some(7), Some(7)));
+                }
+                (e, a, p) => {
+                    // Grazing rays along an edge may go either way in f32.
+                    let graze = slab(
+                        o_local,
+                        d_local,
+                        DVec3::splat(-1.0 - 1e-5),
+                        DVec3::splat(1.0 + 1e-5),
+                    )
+                    .is_some_and(|(t0, t1)| t1 - t0 < 1e-4);
+                    assert!(graze, "ray {i}: expected {e:?}, single {a:?}, packet {p:?}");
+                }
+            }
+            // The scene without the box: the ground (z = 0) or nothing.
+            let behind = space.closest_hit_excluding(ray, 0);
+            let t_ground = origin.z / -ray.direction.z;
+            let p_ground = ray.at(t_ground);
+            if ray.direction.z < 0.0
+                && t_ground < ray.t_max
+                && p_ground.x.abs() < 60.0
+                && p_ground.y.abs() < 60.0
+            {
+                let t = t_ground;
+                let hit = behind.expect("ground behind the box");
+                assert!(close(hit.distance_m, t, 1e-9 * (1.0 + t)), "ray {i}");
+                assert_eq!(hit.object_id, None);
+                on_ground += 1;
+            } else {
+                assert!(behind.is_none(), "ray {i}: {behind:?}");
+            }
+        }
+        assert!(on_box > 400 && on_ground > 400, "{on_box} {on_ground}");
+        // An index past the instances is no hit, not a panic.
+        assert!(space.closest_hit_on_instance(&rays[0], 5).is_none());
+    }
+}
+
+/// Shadow rays: parallel rays from neighbouring surface points are traced as packets; each must
+/// find what it finds alone.
+#[test]
+fn parallel_shadow_ray_packets_match_single_rays() {
+    for kind in KINDS {
+        let (space, _) = small_scene(kind);
+        let sun = DVec3::new(-0.5, 0.3, 0.6).normalize();
+        let mut rng = Rng(5);
+        let rays: Vec<Ray> = (0..4000)
+            .map(|i| {
+                // Runs of neighbouring ground points (a few cm apart), as adjacent pixels give.
+                let base = (i / 4) as f64;
+                let o = DVec3::new(
+                    -40.0 + 0.08 * base + 0.03 * (i % 4) as f64,
+                    -25.0 + 50.0 * ((base * 0.618).fract()),
+                    1e-3,
+                );
+                let d = sun + DVec3::new(0.0, 1e-3 * rng.f(), 0.0);
+                Ray::new(o, d).with_t_max(200.0)
+            })
+            .collect();
+        let mut occluded = vec![false; rays.len()];
+        space.occluded_batch(&rays, &mut occluded);
+        for (i, ray) in rays.iter().enumerate() {
+            assert_eq!(occluded[i], space.any_hit(ray), "ray {i}");
+        }
+        let shadowed = occluded.iter().filter(|&&o| o).count();
+        assert!(shadowed > 20 && shadowed < rays.len() - 20, "{shadowed}");
+    }
+}

@@ -880,7 +880,10 @@ impl Isp {
                 .zip(luminance.par_chunks_mut(w))
                 .zip(self.row_log.par_iter_mut())
                 .for_each(|((((rr, rg), rb), ly), lg)| {
+                    // Σ ln(1 + y) as ln of products of eight factors (each 1 + y < 2^40, so a
+                    // product stays far inside f64's range): one logarithm per eight pixels.
                     let mut acc = 0.0f64;
+                    let mut prod = 1.0f64;
                     for x in 0..w {
                         let cam = [
                             (rr[x] * g32[0]).min(clip),
@@ -895,10 +898,13 @@ impl Isp {
                         rb[x] = s[2];
                         let y = (luma[0] * s[0] + luma[1] * s[1] + luma[2] * s[2]).max(0.0);
                         ly[x] = y;
-                        // f32 logarithm (the log-average is a statistic; ≈ 1e-7 relative).
-                        acc += f64::from((1.0 + y).ln());
+                        prod *= 1.0 + f64::from(y.min(1e12));
+                        if x % 8 == 7 {
+                            acc += prod.ln();
+                            prod = 1.0;
+                        }
                     }
-                    *lg = acc;
+                    *lg = acc + prod.ln();
                 });
         }
         // 6. Exposure.

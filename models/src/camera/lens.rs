@@ -937,8 +937,10 @@ impl Lens {
                 .par_chunks_mut(w.max(1))
                 .zip(ri.par_chunks(w.max(1)))
                 .for_each(|(row, ri_row)| {
+                    // f32 product (k ≈ 1e-12 m²·sr and the rates stay far inside f32's range).
+                    let k = k as f32;
                     for (v, &r) in row.iter_mut().zip(ri_row) {
-                        *v = (f64::from(*v) * k * f64::from(r)) as f32;
+                        *v *= k * r;
                     }
                 });
         }

@@ -517,7 +517,8 @@ struct Pending {
 struct Scratch {
     rays: Vec<Ray>,
     hits: Vec<Option<Hit>>,
-    first: Vec<Option<Hit>>,
+    /// Items whose ray crossed glass: (item, the pane hit).
+    glass_first: Vec<(u32, Hit)>,
     trans: Vec<f32>,
     refl: Vec<f32>,
     acc: Vec<f32>,
@@ -541,7 +542,7 @@ struct Scratch {
     moved: Vec<bool>,
     flags: Vec<bool>,
     blur_idx: Vec<u32>,
-    hits2: Vec<Option<Hit>>,
+    best: Vec<u32>,
     hits3: Vec<Option<Hit>>,
     touched: Vec<bool>,
     dist: Vec<f64>,
@@ -1164,9 +1165,8 @@ impl Ctx<'_> {
         if !self.movers.is_empty() {
             self.displace_movers(items, s);
         }
-        // Glass.
-        s.first.clear();
-        s.first.extend_from_slice(&s.hits);
+        // Glass (the first surface of the items whose ray passes glass is kept aside).
+        s.glass_first.clear();
         s.trans.clear();
         s.trans.resize(n, 1.0);
         s.refl.clear();
@@ -1195,6 +1195,7 @@ impl Ctx<'_> {
                     .space
                     .closest_hit_through(&ray, &glass, self.max_crossings);
                 s.rays_n += 1 + u64::from(tr.crossed);
+                s.glass_first.push((i as u32, hit));
                 s.hits[i] = tr.hit;
                 s.trans[i] = tr.transmittance as f32;
             }
@@ -1209,9 +1210,17 @@ impl Ctx<'_> {
         s.srays.clear();
         let sky_l = self.rows.sky_l();
         let mut owner = (0u32, 0u32, u64::MAX);
+        let mut glass_next = 0;
         for i in 0..n {
             let ray = s.rays[i];
-            let first = s.first[i];
+            // The first surface on the ray (glass, or what the ray stopped at).
+            let first = match s.glass_first.get(glass_next) {
+                Some(&(g, hit)) if g as usize == i => {
+                    glass_next += 1;
+                    Some(hit)
+                }
+                _ => s.hits[i],
+            };
             let smp = &mut out[i];
             smp.lamp = u32::MAX;
             smp.object = u64::MAX;
@@ -1642,29 +1651,31 @@ impl Ctx<'_> {
         let t = std::time::Instant::now();
         let space = &self.frame.space;
         // Each candidate mover alone, at the item's time: the ray from the shifted origin against
-        // that instance's own BVH (the rest of the scene does not move with it). `s.hits2[i]`: the
-        // nearest mover hit of ray i; `s.moved[i]`: ray i's frame-time hit is a candidate mover.
+        // that instance's own BVH (the rest of the scene does not move with it). `s.best[i]`: the
+        // pair with the nearest mover hit of ray i; `s.moved[i]`: ray i's frame-time hit is a
+        // candidate mover.
         s.hits3.clear();
         s.hits3.resize(s.srays.len(), None);
         space.closest_hits_on_instances(&s.srays, &s.idx, &mut s.hits3);
-        s.hits2.clear();
-        s.hits2.resize(n, None);
+        s.best.clear();
+        s.best.resize(n, u32::MAX);
         s.moved.clear();
         s.moved.resize(n, false);
         s.touched.clear();
         s.touched.resize(n, false);
-        for (&(i, k), &h) in s.pairs.iter().zip(&s.hits3) {
+        for (j, (&(i, k), h)) in s.pairs.iter().zip(&s.hits3).enumerate() {
             let i = i as usize;
             s.touched[i] = true;
             let mv = &self.movers[k as usize];
             if s.hits[i].is_some_and(|h| h.instance == Some(mv.instance)) {
                 s.moved[i] = true;
             }
-            if let Some(mut h) = h
-                && s.hits2[i].is_none_or(|b| h.distance_m < b.distance_m)
-            {
-                h.point = s.rays[i].at(h.distance_m);
-                s.hits2[i] = Some(h);
+            if let Some(h) = h {
+                let b = s.best[i];
+                if b == u32::MAX || s.hits3[b as usize].is_some_and(|b| h.distance_m < b.distance_m)
+                {
+                    s.best[i] = j as u32;
+                }
             }
         }
         let mut traced = s.pairs.len() as u64;
@@ -1673,7 +1684,16 @@ impl Ctx<'_> {
                 continue;
             }
             let cur = s.hits[i];
-            let best = s.hits2[i];
+            // The mover hit at the row's time, on the frame-time ray.
+            let best = s
+                .hits3
+                .get(s.best[i] as usize)
+                .copied()
+                .flatten()
+                .map(|mut h| {
+                    h.point = s.rays[i].at(h.distance_m);
+                    h
+                });
             let nearer = |a: Option<Hit>, b: Option<Hit>| match (a, b) {
                 (Some(x), Some(y)) => Some(if y.distance_m < x.distance_m { y } else { x }),
                 (x, None) => x,
