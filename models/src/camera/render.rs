@@ -47,9 +47,14 @@
 //! Each row is rendered at the time of its exposure window (`camera.rolling_shutter`: row `r`
 //! starts `r·row_time_s` after row 0; [`ShutterTiming`]). The sensor pose is
 //! [`WorldFrame::sensor_pose_at`]; moving objects are displaced by `v·Δt` to first order: a ray
-//! whose time-shifted origin `o − v_i Δt` meets instance `i`'s swept bounding sphere is re-traced
-//! from that origin, and a hit on instance `i` replaces the frame-time hit when closer (translation
-//! only; the object's rotation over Δt is neglected). `camera.motion_blur` averages
+//! whose time-shifted origin `o − v_i Δt` meets instance `i`'s box (bounding-cone and sphere tests
+//! first) is re-traced from that origin against instance `i` alone
+//! ([`crate::space::Space::closest_hits_on_instances`]: the static world does not move with it);
+//! the nearest such hit replaces the frame-time hit when closer. Where the frame-time hit was a
+//! moving object that has left the ray, what lies behind it is the scene without that instance
+//! ([`crate::space::Space::closest_hit_excluding`]). Translation only: the object's rotation over
+//! Δt is neglected, and other moving objects seen behind it keep their frame-time place.
+//! `camera.motion_blur` averages
 //! [`RenderConfig::motion_samples`] stratified time samples over the exposure window for the pixels
 //! whose image moves by more than [`RenderConfig::motion_threshold_px`] during the exposure (from
 //! the relative velocity of the point seen); other pixels and `camera.motion_blur` off: one sample
@@ -58,7 +63,8 @@
 //! # Parallelism
 //!
 //! Rows are rendered in blocks on the rayon pool; consecutive pixels of a row form the 4-ray
-//! packets of [`crate::space::Space::trace_batch`]. Scratch buffers are per task (no per-pixel
+//! packets of [`crate::space::Space::trace_batch`], and their sun shadow rays (parallel, from nearby
+//! points) the packets of [`crate::space::Space::occluded_batch`]. Scratch buffers are per task (no per-pixel
 //! allocation). The only randomness (bounce directions, time jitter) is a hash of seed, cycle and
 //! pixel, so the image does not depend on thread scheduling.
 
