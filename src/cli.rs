@@ -279,7 +279,7 @@ pub fn main_with(cli: Cli) -> Result<()> {
             frame,
             image,
         } => {
-            let what = crate::export::export_frame_with(&trace, frame, &out, image)?;
+            let what = crate::export::export_frame(&trace, frame, &out, image)?;
             eprintln!("{what}");
             Ok(())
         }

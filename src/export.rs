@@ -81,14 +81,10 @@ impl CameraImageSel {
 }
 
 /// Read frame `frame` (0-based; `None`: the last frame with content for the output format) of a
-/// PerceptionData trace and write it to `out`; the format follows `out`'s extension. Returns a
-/// one-line description of what was written.
-pub fn export_frame(trace: &Path, frame: Option<usize>, out: &Path) -> Result<String> {
-    export_frame_with(trace, frame, out, None)
-}
-
-/// [`export_frame`] with the camera image to write (`None`: the ISP image for camera traces).
-pub fn export_frame_with(
+/// PerceptionData trace and write it to `out`; the format follows `out`'s extension; `image`: the
+/// camera image to write (`None`: the ISP image for camera traces). Returns a one-line description
+/// of what was written.
+pub fn export_frame(
     trace: &Path,
     frame: Option<usize>,
     out: &Path,

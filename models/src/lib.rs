@@ -21,6 +21,7 @@ pub mod radar;
 pub mod recognition;
 pub mod sensor;
 pub mod space;
+pub mod special;
 pub mod world;
 
 pub use sensor::{

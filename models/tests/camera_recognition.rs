@@ -19,9 +19,6 @@ const H: usize = 480;
 const HFOV: f64 = 50.0 * std::f64::consts::PI / 180.0;
 /// Camera height above the road, m.
 const CAM_H: f64 = 1.3;
-/// Mounting of the camera in the host frame (x forward from the rear axle), m.
-const MOUNT_X: f64 = 1.5;
-
 const CAR: [f64; 3] = [4.5, 1.8, 1.5];
 const LUM_CAR: f32 = 30.0;
 const LUM_ROAD: f32 = 10.0;
@@ -78,17 +75,6 @@ fn frame() -> SensorFrame {
         DVec3::new(0.0, 0.0, CAM_H),
         glam::DMat3::IDENTITY,
     ))
-}
-
-fn mounting() -> osi3::MountingPosition {
-    osi3::MountingPosition {
-        position: Some(v3(MOUNT_X, 0.0, CAM_H)),
-        orientation: Some(osi3::Orientation3d {
-            roll: Some(0.0),
-            pitch: Some(0.0),
-            yaw: Some(0.0),
-        }),
-    }
 }
 
 /// Distance along `dir` from `origin` to an axis-aligned box, if hit.
@@ -202,14 +188,12 @@ fn run(
 ) -> Run {
     let mut rec = CameraRecognition::new(config).unwrap();
     let frame = frame();
-    let mounting = mounting();
     let input = CameraRecognitionInput {
         aux,
         luminance: lum,
         lens,
         ground_truth: gt,
         frame: &frame,
-        mounting: &mounting,
         camera_height_m: CAM_H,
         time_s: 0.0,
         seed: 7,

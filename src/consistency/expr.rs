@@ -332,24 +332,7 @@ pub fn npdf(x: f64) -> f64 {
     (-0.5 * x * x).exp() / (2.0 * std::f64::consts::PI).sqrt()
 }
 
-/// Complementary error function, fractional error < 1.2e-7 everywhere (Chebyshev fit `erfcc`,
-/// Press et al., Numerical Recipes, 2nd ed., §6.2).
-pub fn erfc(x: f64) -> f64 {
-    let z = x.abs();
-    let t = 1.0 / (1.0 + 0.5 * z);
-    let ans = t
-        * (-z * z - 1.265_512_23
-            + t * (1.000_023_68
-                + t * (0.374_091_96
-                    + t * (0.096_784_18
-                        + t * (-0.186_288_06
-                            + t * (0.278_868_07
-                                + t * (-1.135_203_98
-                                    + t * (1.488_515_87
-                                        + t * (-0.822_152_23 + t * 0.170_872_77)))))))))
-            .exp();
-    if x >= 0.0 { ans } else { 2.0 - ans }
-}
+pub use osiris_models::special::erfc;
 
 /// Standard normal distribution function Φ(x) = erfc(−x/√2)/2.
 pub fn ncdf(x: f64) -> f64 {

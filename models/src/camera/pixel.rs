@@ -429,7 +429,12 @@ fn poisson(rng: &mut SmallRng, mean: f64) -> f64 {
     }
     if mean < POISSON_EXACT_BELOW {
         let u: f64 = rng.random();
-        let m = [mean, mean * mean, mean * mean * mean, mean * mean * mean * mean];
+        let m = [
+            mean,
+            mean * mean,
+            mean * mean * mean,
+            mean * mean * mean * mean,
+        ];
         let mut p = (-mean).exp();
         let mut f = p;
         let mut k = 0usize;
@@ -821,7 +826,10 @@ mod tests {
             }
             let mean = s1 / n as f64;
             let var = s2 / n as f64 - mean * mean;
-            assert!((mean - mu).abs() < 5.0 * (mu / n as f64).sqrt(), "μ {mu}: mean {mean}");
+            assert!(
+                (mean - mu).abs() < 5.0 * (mu / n as f64).sqrt(),
+                "μ {mu}: mean {mean}"
+            );
             assert!((var / mu - 1.0).abs() < 0.03, "μ {mu}: variance {var}");
             let mut ln_pk = -mu;
             for (k, &c) in counts.iter().enumerate().take(60) {

@@ -321,53 +321,38 @@ impl CameraSensor {
     }
 }
 
-fn image_u16(
+/// A RAW image as a `CameraImage`: little-endian u16 samples (clipped to the image's largest code)
+/// or, `wide`, u32 samples (the 20–24 bit merged HDR). `exposure_index` only for per-capture RAW.
+fn raw_image(
     raw: &RawImage,
     kind: perception::camera_image::Kind,
     cfa: perception::camera_image::ColorFilterArray,
-) -> perception::CameraImage {
-    use perception::camera_image::SampleFormat;
-    let mut data = Vec::with_capacity(raw.data.len() * 2);
-    let max = raw.max_dn().min(u32::from(u16::MAX));
-    for &v in &raw.data {
-        data.extend_from_slice(&(v.min(max) as u16).to_le_bytes());
-    }
-    perception::CameraImage {
-        kind: Some(kind as i32),
-        exposure_index: Some(raw.exposure_index),
-        width_px: Some(raw.width as u32),
-        height_px: Some(raw.height as u32),
-        cfa: Some(cfa as i32),
-        sample_format: Some(SampleFormat::U16Le as i32),
-        channels: Some(1),
-        bit_depth: Some(raw.bit_depth.min(16)),
-        data: Some(data),
-        exposure_time_s: Some(raw.exposure_time_s),
-        analog_gain: Some(raw.analog_gain),
-        conversion_gain_dn_per_e: Some(raw.conversion_gain_dn_per_e),
-        black_level_dn: Some(raw.black_level_dn),
-        row_time_s: Some(raw.row_time_s),
-        ..Default::default()
-    }
-}
-
-fn image_u32(
-    raw: &RawImage,
-    cfa: perception::camera_image::ColorFilterArray,
+    wide: bool,
 ) -> perception::CameraImage {
     use perception::camera_image::{Kind, SampleFormat};
-    let mut data = Vec::with_capacity(raw.data.len() * 4);
-    for &v in &raw.data {
-        data.extend_from_slice(&v.to_le_bytes());
-    }
+    let (format, bit_depth, data) = if wide {
+        let mut data = Vec::with_capacity(raw.data.len() * 4);
+        for &v in &raw.data {
+            data.extend_from_slice(&v.to_le_bytes());
+        }
+        (SampleFormat::U32Le, raw.bit_depth, data)
+    } else {
+        let mut data = Vec::with_capacity(raw.data.len() * 2);
+        let max = raw.max_dn().min(u32::from(u16::MAX));
+        for &v in &raw.data {
+            data.extend_from_slice(&(v.min(max) as u16).to_le_bytes());
+        }
+        (SampleFormat::U16Le, raw.bit_depth.min(16), data)
+    };
     perception::CameraImage {
-        kind: Some(Kind::RawHdrLinear as i32),
+        kind: Some(kind as i32),
+        exposure_index: (kind == Kind::RawExposure).then_some(raw.exposure_index),
         width_px: Some(raw.width as u32),
         height_px: Some(raw.height as u32),
         cfa: Some(cfa as i32),
-        sample_format: Some(SampleFormat::U32Le as i32),
+        sample_format: Some(format as i32),
         channels: Some(1),
-        bit_depth: Some(raw.bit_depth),
+        bit_depth: Some(bit_depth),
         data: Some(data),
         exposure_time_s: Some(raw.exposure_time_s),
         analog_gain: Some(raw.analog_gain),
@@ -532,7 +517,6 @@ impl SensorModel for CameraSensor {
             lens: &chain.lens,
             ground_truth: gt,
             frame: &frame.frame,
-            mounting: &frame.mounting,
             camera_height_m,
             time_s: frame.time_s,
             seed,
@@ -569,15 +553,16 @@ impl SensorModel for CameraSensor {
             for raw in &b.captures {
                 camera_out
                     .image
-                    .push(image_u16(raw, Kind::RawExposure, cfa));
+                    .push(raw_image(raw, Kind::RawExposure, cfa, false));
             }
         }
         if emit.raw_hdr_linear {
-            camera_out.image.push(image_u32(&b.linear, cfa));
+            camera_out
+                .image
+                .push(raw_image(&b.linear, Kind::RawHdrLinear, cfa, true));
         }
         if emit.raw_companded {
-            let mut img = image_u16(&b.companded, Kind::RawHdrCompanded, cfa);
-            img.exposure_index = None;
+            let mut img = raw_image(&b.companded, Kind::RawHdrCompanded, cfa, false);
             img.companding_knee = chain
                 .hdr
                 .knees()

@@ -365,27 +365,9 @@ impl Cluster {
     }
 }
 
-/// Complementary error function (Numerical Recipes `erfcc`, fractional error < 1.2·10⁻⁷).
-fn erfc(x: f64) -> f64 {
-    let z = x.abs();
-    let t = 1.0 / (1.0 + 0.5 * z);
-    let ans = t
-        * (-z * z - 1.265_512_23
-            + t * (1.000_023_68
-                + t * (0.374_091_96
-                    + t * (0.096_784_18
-                        + t * (-0.186_288_06
-                            + t * (0.278_868_07
-                                + t * (-1.135_203_98
-                                    + t * (1.488_515_87
-                                        + t * (-0.822_152_23 + t * 0.170_872_77)))))))))
-            .exp();
-    if x >= 0.0 { ans } else { 2.0 - ans }
-}
-
 /// Gaussian tail probability Q(x) = P(N(0,1) > x).
 pub fn gaussian_q(x: f64) -> f64 {
-    0.5 * erfc(x / std::f64::consts::SQRT_2)
+    0.5 * crate::special::erfc(x / std::f64::consts::SQRT_2)
 }
 
 /// Inverse of [`gaussian_q`] for p in (0, 1) (bisection; used once when planning).
@@ -1157,7 +1139,8 @@ mod tests {
         for k in [-1.5, -0.5, 0.0, 0.5, 1.0, 2.0] {
             // A such that (A − T)/σ_P(T) = k (σ evaluated at the signal itself below).
             let a = t + k * sigma_p(&c, t, bg);
-            let expected = 0.5 * erfc((t - a) / sigma_p(&c, a, bg) / std::f64::consts::SQRT_2);
+            let expected =
+                0.5 * crate::special::erfc((t - a) / sigma_p(&c, a, bg) / std::f64::consts::SQRT_2);
             let hits = (0..n)
                 .filter(|_| !run(&d, &[ret(60.0, a, 1)], bg, &mut rng).is_empty())
                 .count();

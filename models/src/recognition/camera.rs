@@ -277,8 +277,6 @@ pub struct CameraRecognitionInput<'a> {
     pub ground_truth: &'a osi3::GroundTruth,
     /// The sensor frame in global coordinates (for the OSI output in the host frame).
     pub frame: &'a SensorFrame,
-    /// Mounting of the sensor on the host (sensor frame relative to the host vehicle frame).
-    pub mounting: &'a osi3::MountingPosition,
     /// Height of the camera's optical centre above the road, m.
     pub camera_height_m: f64,
     pub time_s: f64,
