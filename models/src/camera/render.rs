@@ -93,7 +93,7 @@ use crate::environment::sun::SUN_RADIUS_DEG;
 use crate::environment::weather;
 use crate::frames::Pose;
 use crate::sensor::ModelError;
-use crate::space::{Hit, Ray, TransmissionModel};
+use crate::space::{Hit, Ray, TransmissionModel, surface_epsilon};
 use crate::world::WorldFrame;
 
 /// Rolling shutter: row r is exposed from `r · row_time_s` after row 0, and the renderer traces it
@@ -525,6 +525,8 @@ struct Scratch {
     hits: Vec<Option<Hit>>,
     /// Items whose ray crossed glass: (item, the pane hit).
     glass_first: Vec<(u32, Hit)>,
+    /// Items whose ray goes on behind a pane: (item, panes crossed).
+    panes: Vec<(u32, u32)>,
     trans: Vec<f32>,
     refl: Vec<f32>,
     acc: Vec<f32>,
@@ -1173,6 +1175,7 @@ impl Ctx<'_> {
         }
         // Glass (the first surface of the items whose ray passes glass is kept aside).
         s.glass_first.clear();
+        s.panes.clear();
         s.trans.clear();
         s.trans.resize(n, 1.0);
         s.refl.clear();
@@ -1189,23 +1192,60 @@ impl Ctx<'_> {
             if self.max_crossings > 0 && self.transmissive[hit.material.0 as usize] {
                 let ray = s.rays[i];
                 let cos = hit.cos_incidence(ray.direction);
-                if let Some(so) = self
+                let optics = self
                     .mats
                     .get(hit.material)
-                    .slab_optics(Band::Visible(550.0), cos)
-                {
+                    .slab_optics(Band::Visible(550.0), cos);
+                if let Some(so) = optics {
                     s.refl[i] = so.reflectance as f32;
                 }
-                let tr = self
-                    .frame
-                    .space
-                    .closest_hit_through(&ray, &glass, self.max_crossings);
-                s.rays_n += 1 + u64::from(tr.crossed);
                 s.glass_first.push((i as u32, hit));
-                s.hits[i] = tr.hit;
-                s.trans[i] = tr.transmittance as f32;
+                // Through the pane (as `Space::closest_hit_through`, from the pane already found;
+                // τ of `GlassModel`): the rays go on in a batch below.
+                if self.frame.space.effects.transmission {
+                    let tau = optics.map_or(0.0, |so| so.transmittance).clamp(0.0, 1.0);
+                    if tau > 0.0 {
+                        s.trans[i] = tau as f32;
+                        s.panes.push((i as u32, 1));
+                    }
+                }
             }
         }
+        // Batches of the rays behind panes, until each meets an opaque surface, the sky or its
+        // `max_crossings`-th pane.
+        while !s.panes.is_empty() {
+            s.srays.clear();
+            for &(i, _) in &s.panes {
+                let (ray, hit) = (s.rays[i as usize], s.hits[i as usize].expect("a pane"));
+                let t_min = hit.distance_m + surface_epsilon(hit.point, hit.distance_m);
+                s.srays.push(ray.with_t_min(t_min));
+            }
+            let t = std::time::Instant::now();
+            s.hits3.clear();
+            s.hits3.resize(s.srays.len(), None);
+            self.frame.space.trace_batch(&s.srays, &mut s.hits3);
+            s.trace_s += t.elapsed().as_secs_f64();
+            s.camera_s += t.elapsed().as_secs_f64();
+            s.rays_n += s.srays.len() as u64;
+            let mut keep = 0;
+            for j in 0..s.panes.len() {
+                let (i, crossed) = s.panes[j];
+                let (ray, next) = (s.srays[j], s.hits3[j]);
+                s.hits[i as usize] = next;
+                let Some(h) = next else { continue };
+                if crossed >= self.max_crossings {
+                    continue;
+                }
+                let tau = glass.transmittance(&h, ray.direction).clamp(0.0, 1.0);
+                if tau > 0.0 {
+                    s.trans[i as usize] *= tau as f32;
+                    s.panes[keep] = (i, crossed + 1);
+                    keep += 1;
+                }
+            }
+            s.panes.truncate(keep);
+        }
+        s.srays.clear();
 
         // Shading.
         s.acc.clear();

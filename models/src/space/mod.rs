@@ -61,6 +61,7 @@ mod geometry;
 mod packet;
 pub mod path;
 mod query;
+pub(crate) use query::surface_epsilon;
 mod scene;
 mod traverse;
 
