@@ -1286,7 +1286,8 @@ impl Ctx<'_> {
                 };
                 let v_rel = f.velocity_m_s - self.frame.sensor_point_velocity(f.point);
                 let perp = v_rel - ray.direction * v_rel.dot(ray.direction);
-                smp.angular_rate = (perp.length() / f.distance_m.max(1e-3)) as f32;
+                smp.angular_rate =
+                    (perp.length_squared() as f32).sqrt() / f.distance_m.max(1e-3) as f32;
             } else {
                 smp.angular_rate = self
                     .frame
@@ -1448,8 +1449,13 @@ impl Ctx<'_> {
                 gs: (fs * cos_s) as f32 * weight,
                 beta,
             });
-            s.srays
-                .push(Ray::new(p, self.sun_dir).with_t_max(self.max_distance_m));
+            // `sun_dir` is a unit vector already.
+            s.srays.push(Ray {
+                origin: p,
+                direction: self.sun_dir,
+                t_min: 0.0,
+                t_max: self.max_distance_m,
+            });
         }
         // Lamps.
         for lamp in &self.lamps.lamps {
