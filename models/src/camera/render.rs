@@ -554,7 +554,6 @@ struct Scratch {
     hits3: Vec<Option<Hit>>,
     touched: Vec<bool>,
     dist: Vec<f64>,
-    trace_s: f64,
     camera_s: f64,
     shadow_s: f64,
     movers_s: f64,
@@ -848,7 +847,7 @@ impl Renderer {
         let rows_per_task = (4096 / w.max(1)).clamp(1, 64);
         let chunk = rows_per_task * w;
         let flicker_all = Mutex::new(Vec::<FlickerSample>::new());
-        let stats = Mutex::new(([0f64; 4], 0u64));
+        let stats = Mutex::new(([0f64; 3], 0u64));
         let [p0, p1, p2] = &mut out.radiance.planes;
         p0.par_chunks_mut(chunk)
             .zip(p1.par_chunks_mut(chunk))
@@ -1012,12 +1011,10 @@ impl Renderer {
                         .extend_from_slice(&s.flicker);
                 }
                 let mut st = stats.lock().expect("stats");
-                for (a, b) in st.0.iter_mut().zip([
-                    &mut s.trace_s,
-                    &mut s.camera_s,
-                    &mut s.shadow_s,
-                    &mut s.movers_s,
-                ]) {
+                for (a, b) in
+                    st.0.iter_mut()
+                        .zip([&mut s.camera_s, &mut s.shadow_s, &mut s.movers_s])
+                {
                     *a += std::mem::take(b);
                 }
                 st.1 += std::mem::take(&mut s.rays_n);
@@ -1063,7 +1060,8 @@ impl Renderer {
             }
             *idx = last.1;
         }
-        let ([trace_s, camera_s, shadow_s, movers_s], rays) = stats.into_inner().expect("stats");
+        let ([camera_s, shadow_s, movers_s], rays) = stats.into_inner().expect("stats");
+        let trace_s = camera_s + shadow_s + movers_s;
         let total = t_start.elapsed().as_secs_f64();
         // Per-task trace time summed over threads; scale to wall-clock share.
         let threads = rayon::current_num_threads().max(1) as f64;
@@ -1082,21 +1080,19 @@ impl Ctx<'_> {
     }
 
     /// The static-world element that triangle `t` belongs to: its triangle range and its
-    /// ground-truth object id (`u64::MAX` if it is not an object).
+    /// ground-truth object id (`u64::MAX` if it is not an object; an empty range if `t` has no
+    /// owner, so that it is looked up again next time).
     fn static_owner(&self, t: u32) -> (u32, u32, u64) {
-        let owners = &self.frame.scene.static_owners;
-        let i = owners.partition_point(|o| o.first_triangle <= t);
-        match i.checked_sub(1).and_then(|i| owners.get(i)) {
-            Some(o) if t < o.first_triangle + o.triangle_count => {
+        self.frame
+            .scene
+            .static_owner(t)
+            .map_or((0, 0, u64::MAX), |o| {
                 let id = match o.element {
                     StaticElement::Object(id) if id != osiris_proto::INVALID_ID => id,
                     _ => u64::MAX,
                 };
                 (o.first_triangle, o.first_triangle + o.triangle_count, id)
-            }
-            // Not owned: an empty range (looked up again next time).
-            _ => (0, 0, u64::MAX),
-        }
+            })
     }
 
     /// Angular size of a pixel near `pixel`, rad.
@@ -1131,7 +1127,6 @@ impl Ctx<'_> {
             self.frame.space.occluded_batch(&s.srays, &mut s.socc);
             s.shadow_s += t.elapsed().as_secs_f64();
         }
-        s.trace_s += t.elapsed().as_secs_f64();
         s.rays_n += if which { s.rays.len() } else { s.srays.len() } as u64;
     }
 
@@ -1224,7 +1219,6 @@ impl Ctx<'_> {
             s.hits3.clear();
             s.hits3.resize(s.srays.len(), None);
             self.frame.space.trace_batch(&s.srays, &mut s.hits3);
-            s.trace_s += t.elapsed().as_secs_f64();
             s.camera_s += t.elapsed().as_secs_f64();
             s.rays_n += s.srays.len() as u64;
             let mut keep = 0;
@@ -1766,7 +1760,6 @@ impl Ctx<'_> {
                 _ => nearer(cur, best),
             };
         }
-        s.trace_s += t.elapsed().as_secs_f64();
         s.movers_s += t.elapsed().as_secs_f64();
         s.rays_n += traced;
         s.srays.clear();

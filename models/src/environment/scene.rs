@@ -875,11 +875,16 @@ impl Scene {
 
     /// What static-world triangle `t` belongs to.
     pub fn static_element(&self, t: u32) -> Option<StaticElement> {
+        self.static_owner(t).map(|o| o.element)
+    }
+
+    /// The owner record (element and triangle range) of static-world triangle `t`.
+    pub fn static_owner(&self, t: u32) -> Option<&StaticOwner> {
         let i = self
             .static_owners
             .partition_point(|o| o.first_triangle <= t);
         let o = self.static_owners.get(i.checked_sub(1)?)?;
-        (t < o.first_triangle + o.triangle_count).then_some(o.element)
+        (t < o.first_triangle + o.triangle_count).then_some(o)
     }
 
     /// Update to a new ground truth (see the module documentation).

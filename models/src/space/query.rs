@@ -395,17 +395,7 @@ impl Space {
                         continue;
                     }
                 }
-                let r = f32_ray(&rays[j]);
-                out[j] = blas.closest(&mesh_ray(inst, &r)).map(|(t, prim)| {
-                    space.finish_hit(
-                        &rays[j],
-                        RawHit {
-                            t,
-                            instance: k,
-                            prim,
-                        },
-                    )
-                });
+                out[j] = space.closest_hit_on_instance(&rays[j], k);
                 j += 1;
             }
         }
