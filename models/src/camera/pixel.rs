@@ -630,15 +630,30 @@ impl PixelModel {
             return c.max_exposure_s;
         }
         let chunk = rate.width.max(1);
+        // Σ ln max(r, 1) as logarithms of products of eight factors (each clamped to 10³⁰ e⁻/s,
+        // far above any physical rate, so that a product stays inside f64's range): one
+        // logarithm per eight pixels. Non-finite rates count as 1 e⁻/s.
         let sums: Vec<f64> = plane
             .par_chunks(chunk)
             .map(|row| {
-                row.iter()
-                    .map(|&v| {
-                        let v = f64::from(v);
-                        if v.is_finite() { v.max(1.0).ln() } else { 0.0 }
-                    })
-                    .sum::<f64>()
+                let factor = |v: f32| {
+                    let v = f64::from(v);
+                    if v.is_finite() {
+                        v.clamp(1.0, 1e30)
+                    } else {
+                        1.0
+                    }
+                };
+                let mut groups = row.chunks_exact(8);
+                let mut sum = 0.0;
+                for g in &mut groups {
+                    sum += g.iter().fold(1.0, |p, &v| p * factor(v)).ln();
+                }
+                sum + groups
+                    .remainder()
+                    .iter()
+                    .fold(1.0, |p, &v| p * factor(v))
+                    .ln()
             })
             .collect();
         let mean_ln = sums.iter().sum::<f64>() / plane.len() as f64;
@@ -733,74 +748,98 @@ impl PixelModel {
         );
         let row_start0 = timing.frame_time_s + timing.start_offset_s + exposure.start_offset_s;
 
-        out.data.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-            let mut shot_rng = row_rng(shot_seed, 0x5407, y);
-            let mut read_rng = row_rng(noise_seed, 0x4EAD, y);
-            let base = y * w;
-            let t0 = row_start0 + y as f64 * timing.row_time_s;
-            let lo = flick.partition_point(|&(p, _)| (p as usize) < base);
-            let hi = flick.partition_point(|&(p, _)| (p as usize) < base + w);
-            let row_flicker = &flick[lo..hi];
-            let mut next_flicker = 0usize;
-            // Row slices (no per-pixel bounds checks) and the CFA pattern of the row.
-            let planes: [&[f32]; 3] = if same_size {
-                [
-                    &rate.planes[0][base..base + w],
-                    &rate.planes[1][base..base + w],
-                    &rate.planes[2][base..base + w],
-                ]
-            } else {
-                [&[], &[], &[]]
-            };
-            let pattern = [cfa.channel(0, y), cfa.channel(1, y)];
-            let prnu_row = self.prnu_gain.get(base..base + w).unwrap_or(&[]);
-            let dsnu_row = self.dsnu_e.get(base..base + w).unwrap_or(&[]);
-            for (x, px) in row.iter_mut().enumerate() {
-                let i = base + x;
-                let c = pattern[x & 1];
-                let r = planes[c].get(x).map_or(0.0, |&v| f64::from(v));
-                let mut mu_e = if r.is_finite() && r > 0.0 {
-                    r * t * sens
-                } else {
-                    0.0
-                };
-                while next_flicker < row_flicker.len() && row_flicker[next_flicker].0 as usize == i
-                {
-                    let s = &flicker.samples[row_flicker[next_flicker].1 as usize];
-                    let src = &flicker.sources[s.source as usize];
-                    let v = f64::from(s.value[c]);
-                    let duty = if src.duty > 0.0 && src.frequency_hz > 0.0 {
-                        src.duty.min(1.0)
-                    } else {
-                        1.0
+        // One row at a time, in passes over a row buffer of electrons: the arithmetic passes
+        // (mean, DN conversion) vectorise; the random draws keep their order per stream.
+        out.data
+            .par_chunks_mut(w)
+            .enumerate()
+            .for_each_init(Vec::<f64>::new, |e, (y, row)| {
+                e.clear();
+                e.resize(w, 0.0);
+                let base = y * w;
+                // 1. Mean photo-electrons of the row's CFA channels: r·t·s.
+                if same_size {
+                    // Negative, NaN and infinite rates give no light (`max` ignores NaN).
+                    let mu = |r: f32| {
+                        let r = f64::from(r);
+                        if r < f64::INFINITY {
+                            r.max(0.0) * t * sens
+                        } else {
+                            0.0
+                        }
                     };
-                    if v.is_finite() && v > 0.0 {
-                        mu_e += v / duty * src.on_fraction(t0, t) * t * sens;
+                    let even = &rate.planes[cfa.channel(0, y)][base..base + w];
+                    let odd = &rate.planes[cfa.channel(1, y)][base..base + w];
+                    let mut pairs = e.chunks_exact_mut(2);
+                    for ((e, a), b) in (&mut pairs)
+                        .zip(even.chunks_exact(2))
+                        .zip(odd.chunks_exact(2))
+                    {
+                        e[0] = mu(a[0]);
+                        e[1] = mu(b[1]);
                     }
-                    next_flicker += 1;
+                    if let Some(last) = pairs.into_remainder().first_mut() {
+                        *last = mu(even[w - 1]);
+                    }
                 }
-                if let Some(g) = prnu_row.get(x) {
-                    mu_e *= f64::from(*g);
+                // 2. LED pixels: (v/d)·f_on(t₀, t)·t·s.
+                let lo = flick.partition_point(|&(p, _)| (p as usize) < base);
+                let hi = flick.partition_point(|&(p, _)| (p as usize) < base + w);
+                if lo < hi {
+                    let t0 = row_start0 + y as f64 * timing.row_time_s;
+                    for &(p, k) in &flick[lo..hi] {
+                        let x = p as usize - base;
+                        let s = &flicker.samples[k as usize];
+                        let src = &flicker.sources[s.source as usize];
+                        let v = f64::from(s.value[cfa.channel(x, y)]);
+                        let duty = if src.duty > 0.0 && src.frequency_hz > 0.0 {
+                            src.duty.min(1.0)
+                        } else {
+                            1.0
+                        };
+                        if v.is_finite() && v > 0.0 {
+                            e[x] += v / duty * src.on_fraction(t0, t) * t * sens;
+                        }
+                    }
                 }
-                let mean = mu_e + mu_dark;
-                let mut n = if shot {
-                    poisson(&mut shot_rng, mean)
-                } else {
-                    mean
-                };
-                n = n.min(full_well);
-                if let Some(o) = dsnu_row.get(x) {
-                    n += f64::from(*o);
+                // 3. PRNU gain, dark electrons.
+                if let Some(prnu) = self.prnu_gain.get(base..base + w) {
+                    for (e, &g) in e.iter_mut().zip(prnu) {
+                        *e *= f64::from(g);
+                    }
+                }
+                if mu_dark != 0.0 {
+                    e.iter_mut().for_each(|e| *e += mu_dark);
+                }
+                // 4. Shot noise, full well.
+                if shot {
+                    let mut rng = row_rng(shot_seed, 0x5407, y);
+                    for e in e.iter_mut() {
+                        *e = poisson(&mut rng, *e);
+                    }
+                }
+                if full_well < f64::INFINITY {
+                    e.iter_mut().for_each(|e| *e = e.min(full_well));
+                }
+                // 5. DSNU offset, read noise.
+                if let Some(dsnu) = self.dsnu_e.get(base..base + w) {
+                    for (e, &o) in e.iter_mut().zip(dsnu) {
+                        *e += f64::from(o);
+                    }
                 }
                 if read_sigma > 0.0 {
-                    let z: f64 = read_rng.sample(StandardNormal);
-                    n += read_sigma * z;
+                    let mut rng = row_rng(noise_seed, 0x4EAD, y);
+                    for e in e.iter_mut() {
+                        let z: f64 = rng.sample(StandardNormal);
+                        *e += read_sigma * z;
+                    }
                 }
-                // Round half up of a value clamped to [0, top] (`as` truncates; `f64::round` is a
-                // libm call on baseline x86-64).
-                *px = ((n * gain + black).clamp(0.0, top) + 0.5) as u32;
-            }
-        });
+                // 6. ADC: round half up of the value clamped to [0, top] (`as` truncates;
+                // `f64::round` is a libm call on baseline x86-64).
+                for (px, &e) in row.iter_mut().zip(e.iter()) {
+                    *px = ((e * gain + black).clamp(0.0, top) + 0.5) as u32;
+                }
+            });
     }
 }
 
