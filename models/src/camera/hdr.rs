@@ -286,14 +286,39 @@ impl HdrPipeline {
     /// the first capture (DN of capture 0, extended above its saturation), `out.bit_depth` 20–24.
     /// In `single` mode (or with one capture) the capture is copied.
     pub fn merge(&self, captures: &[RawImage], out: &mut RawImage) {
+        self.merge_into(captures, out, None);
+    }
+
+    /// [`Self::merge`] then [`Self::compand`] of the result, in one pass over the rows.
+    pub fn merge_and_compand(
+        &self,
+        captures: &[RawImage],
+        linear: &mut RawImage,
+        companded: &mut RawImage,
+    ) {
+        self.merge_into(captures, linear, Some(companded));
+    }
+
+    fn merge_into(
+        &self,
+        captures: &[RawImage],
+        out: &mut RawImage,
+        companded: Option<&mut RawImage>,
+    ) {
         let Some(first) = captures.first() else {
             out.data.clear();
             out.width = 0;
             out.height = 0;
+            if let Some(c) = companded {
+                self.compand(out, c);
+            }
             return;
         };
         if self.config.mode == HdrMode::Single || captures.len() == 1 {
             out.clone_from(first);
+            if let Some(c) = companded {
+                self.compand(out, c);
+            }
             return;
         }
         let specs = self
@@ -348,25 +373,54 @@ impl HdrPipeline {
         out.exposure_index = 0;
         out.data.clear();
         out.data.resize(w * h, 0);
+        // The companded image: header now, rows in the merge pass.
+        let mut companded = companded;
+        let curve = match companded.as_deref_mut() {
+            Some(c) if self.companding => {
+                self.compand_header(out, c);
+                Some(Pwl::new(&self.knees, self.config.companded_bits))
+            }
+            _ => None,
+        };
         if captures.iter().take(n).any(|c| c.data.len() != w * h) {
+            if let Some(c) = companded {
+                self.compand(out, c);
+            }
             return;
         }
         let captures = &captures[..n];
-        out.data
-            .par_chunks_mut(w.max(1))
-            .enumerate()
-            .for_each(|(y, row)| {
-                let mut rows: [&[u32]; 8] = [&[]; 8];
-                for (r, c) in rows.iter_mut().zip(captures) {
-                    *r = &c.data[y * w..(y + 1) * w];
+        let merge_row = |y: usize, row: &mut [u32]| {
+            let mut rows: [&[u32]; 8] = [&[]; 8];
+            for (r, c) in rows.iter_mut().zip(captures) {
+                *r = &c.data[y * w..(y + 1) * w];
+            }
+            let rows = &rows[..captures.len()];
+            for (x, o) in row.iter_mut().enumerate() {
+                let e = merge_pixel(plan, rows, x);
+                // Round half up within [0, out_max] (`as` truncates).
+                *o = ((b0 + e * g0).clamp(0.0, out_max) + 0.5) as u32;
+            }
+        };
+        match (companded, curve) {
+            (Some(c), Some(curve)) => out
+                .data
+                .par_chunks_mut(w.max(1))
+                .zip(c.data.par_chunks_mut(w.max(1)))
+                .enumerate()
+                .for_each(|(y, (row, crow))| {
+                    merge_row(y, row);
+                    curve.apply(row, crow);
+                }),
+            (companded, _) => {
+                out.data
+                    .par_chunks_mut(w.max(1))
+                    .enumerate()
+                    .for_each(|(y, row)| merge_row(y, row));
+                if let Some(c) = companded {
+                    self.compand(out, c);
                 }
-                let rows = &rows[..captures.len()];
-                for (x, o) in row.iter_mut().enumerate() {
-                    let e = merge_pixel(plan, rows, x);
-                    // Round half up within [0, out_max] (`as` truncates).
-                    *o = ((b0 + e * g0).clamp(0.0, out_max) + 0.5) as u32;
-                }
-            });
+            }
+        }
     }
 
     /// PWL-compand a linear RAW (the knees are [`Self::knees`]); identity when
@@ -376,6 +430,16 @@ impl HdrPipeline {
             out.clone_from(linear);
             return;
         }
+        self.compand_header(linear, out);
+        let curve = Pwl::new(&self.knees, self.config.companded_bits);
+        out.data
+            .par_chunks_mut(4096)
+            .zip(linear.data.par_chunks(4096))
+            .for_each(|(o, l)| curve.apply(l, o));
+    }
+
+    /// Size, metadata and (zeroed) samples of the companded image of `linear`.
+    fn compand_header(&self, linear: &RawImage, out: &mut RawImage) {
         out.width = linear.width;
         out.height = linear.height;
         out.bit_depth = self.config.companded_bits;
@@ -387,32 +451,11 @@ impl HdrPipeline {
         out.exposure_index = linear.exposure_index;
         out.data.clear();
         out.data.resize(linear.data.len(), 0);
-        let max = ((1u64 << self.config.companded_bits) - 1) as f64;
-        out.data
-            .par_chunks_mut(4096)
-            .zip(linear.data.par_chunks(4096))
-            .for_each(|(o, l)| {
-                for (o, &v) in o.iter_mut().zip(l) {
-                    // Floor of a non-negative value: `as` truncates.
-                    *o = self.compand_value(f64::from(v)).clamp(0.0, max) as u32;
-                }
-            });
     }
 
     /// The PWL curve (before the output rounding): linear DN → companded DN (continuous).
     pub fn compand_value(&self, x: f64) -> f64 {
-        let k = &self.knees;
-        if k.len() < 2 {
-            return x;
-        }
-        if x <= k[0].input_dn {
-            return k[0].output_dn;
-        }
-        let i = k.partition_point(|kn| kn.input_dn <= x).min(k.len() - 1);
-        let (a, b) = (k[i - 1], k[i]);
-        let y = a.output_dn
-            + (x - a.input_dn) * (b.output_dn - a.output_dn) / (b.input_dn - a.input_dn);
-        y.min(k[k.len() - 1].output_dn)
+        pwl_value(&self.knees, x)
     }
 
     /// Invert the companding (decompanding LUT), for tools reading companded RAW: the centre of
@@ -444,6 +487,50 @@ impl HdrPipeline {
 
     pub fn knees(&self) -> &[Knee] {
         &self.knees
+    }
+}
+
+/// The PWL curve through `knees` (strictly increasing): `knees[0].output_dn` at and below the first
+/// knee, linear between knees, at most the last knee's output.
+#[inline]
+fn pwl_value(k: &[Knee], x: f64) -> f64 {
+    if k.len() < 2 {
+        return x;
+    }
+    if x <= k[0].input_dn {
+        return k[0].output_dn;
+    }
+    // The segment: the number of knees at or below x (≥ 1 here), counted without branches.
+    let i = k
+        .iter()
+        .map(|kn| usize::from(kn.input_dn <= x))
+        .sum::<usize>();
+    let i = i.min(k.len() - 1);
+    let (a, b) = (k[i - 1], k[i]);
+    let y =
+        a.output_dn + (x - a.input_dn) * (b.output_dn - a.output_dn) / (b.input_dn - a.input_dn);
+    y.min(k[k.len() - 1].output_dn)
+}
+
+/// The companding curve applied to rows: [`pwl_value`], floored and clipped to the output range.
+struct Pwl<'a> {
+    knees: &'a [Knee],
+    max: f64,
+}
+
+impl<'a> Pwl<'a> {
+    fn new(knees: &'a [Knee], bits: u32) -> Pwl<'a> {
+        Pwl {
+            knees,
+            max: ((1u64 << bits) - 1) as f64,
+        }
+    }
+
+    fn apply(&self, linear: &[u32], out: &mut [u32]) {
+        for (o, &v) in out.iter_mut().zip(linear) {
+            // Floor of a non-negative value: `as` truncates.
+            *o = pwl_value(self.knees, f64::from(v)).clamp(0.0, self.max) as u32;
+        }
     }
 }
 

@@ -495,8 +495,9 @@ impl SensorModel for CameraSensor {
             );
             raw.row_time_s = row_time_s;
         }
-        chain.hdr.merge(&b.captures, &mut b.linear);
-        chain.hdr.compand(&b.linear, &mut b.companded);
+        chain
+            .hdr
+            .merge_and_compand(&b.captures, &mut b.linear, &mut b.companded);
         self.times.pixel_s = t.elapsed().as_secs_f64();
 
         let t = std::time::Instant::now();
