@@ -542,6 +542,8 @@ struct Scratch {
     items: Vec<Item>,
     samples: Vec<Sample>,
     blur: Vec<Sample>,
+    /// One batch of [`Ctx::radiance_batched`].
+    part: Vec<Sample>,
     flicker: Vec<FlickerSample>,
     pairs: Vec<(u32, u32)>,
     /// Per mover: (index, cone of its swept bounding sphere: axis, cos α, sin α).
@@ -571,6 +573,9 @@ fn hash64(mut x: u64) -> u64 {
 fn unit_f64(h: u64) -> f64 {
     (h >> 11) as f64 / (1u64 << 53) as f64
 }
+
+/// Items per call of [`Ctx::radiance`] (a multiple of the 4-ray packet width).
+const RADIANCE_BATCH: usize = 1024;
 
 /// Offset of secondary-ray origins from a surface, m.
 fn eps_at(p: DVec3) -> f64 {
@@ -869,7 +874,7 @@ impl Renderer {
                 }
                 let mut samples = std::mem::take(&mut s.samples);
                 let items = std::mem::take(&mut s.items);
-                ctx.radiance(&items, s, &mut samples);
+                ctx.radiance_batched(&items, s, &mut samples);
                 s.flicker.clear();
                 for (i, smp) in samples.iter().enumerate() {
                     r[i] = smp.image[0];
@@ -956,7 +961,7 @@ impl Renderer {
                     }
                     if nf > 0 {
                         let mut blur = std::mem::take(&mut s.blur);
-                        ctx.radiance(&items, s, &mut blur);
+                        ctx.radiance_batched(&items, s, &mut blur);
                         let inv = 1.0 / blur_samples as f32;
                         for (f, &i) in s.blur_idx.iter().enumerate() {
                             let i = i as usize;
@@ -1146,6 +1151,18 @@ impl Ctx<'_> {
     }
 
     /// Compute one sample per item.
+    /// [`Self::radiance`] in batches of at most [`RADIANCE_BATCH`] items, so that the per-ray
+    /// scratch (rays, hit records, lane accumulators) stays in the core's L2 cache.
+    fn radiance_batched(&self, items: &[Item], s: &mut Scratch, out: &mut Vec<Sample>) {
+        out.clear();
+        let mut part = std::mem::take(&mut s.part);
+        for batch in items.chunks(RADIANCE_BATCH) {
+            self.radiance(batch, s, &mut part);
+            out.extend_from_slice(&part);
+        }
+        s.part = part;
+    }
+
     fn radiance(&self, items: &[Item], s: &mut Scratch, out: &mut Vec<Sample>) {
         let n = items.len();
         let nl = self.nl;
