@@ -435,7 +435,8 @@ fn batch_equals_sequential() {
 
 #[test]
 fn coherent_batches_match_single_rays() {
-    // LiDAR-like columns are traced as 4-ray packets; each ray must find what it finds alone.
+    // LiDAR-like columns are traced as 8-ray (AVX2) or 4-ray packets; each ray must find what it
+    // finds alone.
     for kind in KINDS {
         let (space, _) = small_scene(kind);
         let origin = DVec3::new(-3.0, 1.0, 1.8);

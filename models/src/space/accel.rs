@@ -2,7 +2,7 @@
 
 use std::time::{Duration, Instant};
 
-use glam::{Affine3A, DMat3, DVec3, Mat3, Vec3, Vec3A, Vec4};
+use glam::{Affine3A, DMat3, DVec3, Mat3, Vec3, Vec3A};
 use obvhs::{
     BvhBuildParams,
     aabb::Aabb,
@@ -16,7 +16,7 @@ use obvhs::{
 use rayon::prelude::*;
 
 use super::SpaceEffects;
-use super::packet::{Packet, intersect4, traverse4};
+use super::packet::{self, Lanes, Packet};
 use super::traverse;
 use crate::environment::{material::MaterialId, mesh::Mesh};
 use crate::frames::Pose;
@@ -222,31 +222,33 @@ impl Blas {
     }
 
     /// Closest triangles for a packet: lowers the lanes of `p.tmax` that hit and records their
-    /// BVH-order triangle in `prim`.
+    /// BVH-order triangle in `prim` (as f32 bit patterns: blends copy bits unchanged).
     #[inline(always)]
-    pub(crate) fn closest4(&self, p: &mut Packet, prim: &mut [u32; 4]) {
+    pub(crate) fn closest_packet<V: Lanes>(&self, p: &mut Packet<V>, prim: &mut V) {
         match &self.accel {
             Accel::Empty => {}
             Accel::Bvh2 { bvh, shallow: true } => {
                 let tris = &self.tris;
-                // Triangle indices ride along as f32 bit patterns (blends copy bits unchanged).
-                let mut ids = Vec4::from_array(prim.map(f32::from_bits));
-                traverse4(&bvh.nodes, p, |first, count, p| {
-                    for q in first..first + count {
-                        let t = intersect4(&tris[q as usize], p);
-                        let better = t.cmplt(p.tmax);
-                        p.tmax = Vec4::select(better, t, p.tmax);
-                        ids = Vec4::select(better, Vec4::splat(f32::from_bits(q)), ids);
-                    }
-                    true
-                });
-                *prim = ids.to_array().map(f32::to_bits);
+                packet::traverse(
+                    &bvh.nodes,
+                    p,
+                    #[inline(always)]
+                    |first, count, p| {
+                        for q in first..first + count {
+                            let t = packet::intersect(&tris[q as usize], p);
+                            let better = t.lt(p.tmax);
+                            p.tmax = V::select(better, t, p.tmax);
+                            *prim = V::select(better, V::splat(f32::from_bits(q)), *prim);
+                        }
+                        true
+                    },
+                );
             }
             _ => {
-                for (l, slot) in prim.iter_mut().enumerate() {
+                for l in 0..V::N {
                     if let Some((t, q)) = self.closest(&p.lane(l)) {
-                        p.tmax[l] = t;
-                        *slot = q;
+                        p.tmax.set_lane(l, t);
+                        prim.set_lane(l, f32::from_bits(q));
                     }
                 }
             }
@@ -256,25 +258,31 @@ impl Blas {
     /// Occlusion for a packet: the lanes with a triangle within `[tmin, tmax)` get `tmax = −∞`
     /// (finished); returns their mask.
     #[inline(always)]
-    pub(crate) fn occluded4(&self, p: &mut Packet) -> u32 {
+    pub(crate) fn occluded_packet<V: Lanes>(&self, p: &mut Packet<V>) -> u32 {
+        let all = (1u32 << V::N) - 1;
         let mut done = 0;
         match &self.accel {
             Accel::Empty => {}
             Accel::Bvh2 { bvh, shallow: true } => {
                 let tris = &self.tris;
-                traverse4(&bvh.nodes, p, |first, count, p| {
-                    for q in first..first + count {
-                        let hit = intersect4(&tris[q as usize], p).cmplt(p.tmax);
-                        p.tmax = Vec4::select(hit, Vec4::NEG_INFINITY, p.tmax);
-                        done |= hit.bitmask();
-                    }
-                    done != 0b1111
-                });
+                packet::traverse(
+                    &bvh.nodes,
+                    p,
+                    #[inline(always)]
+                    |first, count, p| {
+                        for q in first..first + count {
+                            let hit = packet::intersect(&tris[q as usize], p).lt(p.tmax);
+                            p.tmax = V::select(hit, V::splat(f32::NEG_INFINITY), p.tmax);
+                            done |= V::bitmask(hit);
+                        }
+                        done != all
+                    },
+                );
             }
             _ => {
-                for l in 0..4 {
-                    if p.tmax[l] >= p.tmin[l] && self.occluded(&p.lane(l)) {
-                        p.tmax[l] = f32::NEG_INFINITY;
+                for l in 0..V::N {
+                    if p.tmax.lane(l) >= p.tmin.lane(l) && self.occluded(&p.lane(l)) {
+                        p.tmax.set_lane(l, f32::NEG_INFINITY);
                         done |= 1 << l;
                     }
                 }

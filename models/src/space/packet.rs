@@ -1,9 +1,10 @@
-//! Four-ray packets for coherent rays (LiDAR columns, camera tiles).
+//! Ray packets for coherent rays (LiDAR columns, camera rows, sun shadow rays).
 //!
-//! Four rays with (nearly) the same origin and direction traverse the BVH2 together (Wald et al.
-//! 2001, "Interactive rendering with coherent ray tracing"): each node box and each triangle is tested
-//! against all four rays at once in structure-of-arrays form (glam `Vec4`, one SIMD lane per ray), and
-//! a node is entered when any ray reaches it. The per-lane arithmetic is the single-ray arithmetic,
+//! A packet of 4 or 8 rays with (nearly) the same origin and direction traverses the BVH2 together
+//! (Wald et al. 2001, "Interactive rendering with coherent ray tracing"): each node box and each
+//! triangle is tested against all rays at once in structure-of-arrays form (one SIMD lane per ray:
+//! glam `Vec4` on SSE, or one AVX register for eight rays where the CPU has AVX2), and a node is
+//! entered when any ray reaches it. The per-lane arithmetic is the single-ray arithmetic,
 //! operation for operation, so a ray finds the same surface whether traced alone or in a packet.
 
 use glam::{Affine3A, BVec4A, Vec4};
@@ -13,29 +14,278 @@ use obvhs::rt_triangle::RtTriangle;
 
 use super::traverse::{FAR_SCALE, STACK};
 
-/// Four rays, structure of arrays: component `k` of ray `i` is `o[k][i]`.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Packet {
-    pub(crate) o: [Vec4; 3],
-    pub(crate) d: [Vec4; 3],
-    pub(crate) inv: [Vec4; 3],
-    pub(crate) tmin: Vec4,
-    pub(crate) tmax: Vec4,
+/// One f32 per ray of a packet, with the SSE semantics glam uses (`min`/`max` as `minps`/`maxps`).
+pub(crate) trait Lanes:
+    Copy + std::ops::Sub<Output = Self> + std::ops::Mul<Output = Self>
+{
+    /// Lanes (rays) per packet.
+    const N: usize;
+    /// Per-lane comparison results.
+    type Mask: Copy + std::ops::BitAnd<Output = Self::Mask>;
+    fn splat(v: f32) -> Self;
+    fn from_fn(f: impl FnMut(usize) -> f32) -> Self;
+    fn lane(&self, i: usize) -> f32;
+    fn set_lane(&mut self, i: usize, v: f32);
+    fn div(self, rhs: Self) -> Self;
+    fn add(self, rhs: Self) -> Self;
+    fn min(self, rhs: Self) -> Self;
+    fn max(self, rhs: Self) -> Self;
+    fn abs(self) -> Self;
+    fn copysign(self, sign: Self) -> Self;
+    fn lt(self, rhs: Self) -> Self::Mask;
+    fn le(self, rhs: Self) -> Self::Mask;
+    fn ge(self, rhs: Self) -> Self::Mask;
+    fn select(mask: Self::Mask, a: Self, b: Self) -> Self;
+    /// Bit `i` set where lane `i` of the mask is.
+    fn bitmask(mask: Self::Mask) -> u32;
+    fn min_element(self) -> f32;
+    fn max_element(self) -> f32;
 }
 
-/// obvhs's `safe_inverse` on four lanes: `1/x`, or `±1/ε` where `|x| ≤ ε`.
-#[inline(always)]
-fn safe_inverse(x: Vec4) -> Vec4 {
-    let tiny = x.abs().cmple(Vec4::splat(f32::EPSILON));
-    let big = Vec4::splat(1.0 / f32::EPSILON).copysign(x);
-    Vec4::select(tiny, big, Vec4::ONE / x)
-}
-
-impl Packet {
-    /// The packet of four obvhs rays.
+impl Lanes for Vec4 {
+    const N: usize = 4;
+    type Mask = BVec4A;
     #[inline(always)]
-    pub(crate) fn new(r: &[Ray; 4]) -> Packet {
-        let v = |f: fn(&Ray) -> f32| Vec4::new(f(&r[0]), f(&r[1]), f(&r[2]), f(&r[3]));
+    fn splat(v: f32) -> Self {
+        Vec4::splat(v)
+    }
+    #[inline(always)]
+    fn from_fn(mut f: impl FnMut(usize) -> f32) -> Self {
+        Vec4::new(f(0), f(1), f(2), f(3))
+    }
+    #[inline(always)]
+    fn lane(&self, i: usize) -> f32 {
+        self[i]
+    }
+    #[inline(always)]
+    fn set_lane(&mut self, i: usize, v: f32) {
+        self[i] = v;
+    }
+    #[inline(always)]
+    fn div(self, rhs: Self) -> Self {
+        self / rhs
+    }
+    #[inline(always)]
+    fn add(self, rhs: Self) -> Self {
+        self + rhs
+    }
+    #[inline(always)]
+    fn min(self, rhs: Self) -> Self {
+        Vec4::min(self, rhs)
+    }
+    #[inline(always)]
+    fn max(self, rhs: Self) -> Self {
+        Vec4::max(self, rhs)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        Vec4::abs(self)
+    }
+    #[inline(always)]
+    fn copysign(self, sign: Self) -> Self {
+        Vec4::copysign(self, sign)
+    }
+    #[inline(always)]
+    fn lt(self, rhs: Self) -> BVec4A {
+        self.cmplt(rhs)
+    }
+    #[inline(always)]
+    fn le(self, rhs: Self) -> BVec4A {
+        self.cmple(rhs)
+    }
+    #[inline(always)]
+    fn ge(self, rhs: Self) -> BVec4A {
+        self.cmpge(rhs)
+    }
+    #[inline(always)]
+    fn select(mask: BVec4A, a: Self, b: Self) -> Self {
+        Vec4::select(mask, a, b)
+    }
+    #[inline(always)]
+    fn bitmask(mask: BVec4A) -> u32 {
+        mask.bitmask()
+    }
+    #[inline(always)]
+    fn min_element(self) -> f32 {
+        Vec4::min_element(self)
+    }
+    #[inline(always)]
+    fn max_element(self) -> f32 {
+        Vec4::max_element(self)
+    }
+}
+
+/// Eight lanes in one AVX register. Only for code that runs after a positive AVX2 check (the
+/// `avx2` paths of `query`, which inline everything down to these intrinsics).
+#[cfg(target_arch = "x86_64")]
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Avx8(std::arch::x86_64::__m256);
+
+/// The mask of an [`Avx8`] (all bits of a lane set or clear).
+#[cfg(target_arch = "x86_64")]
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Avx8Mask(std::arch::x86_64::__m256);
+
+#[cfg(target_arch = "x86_64")]
+mod avx8 {
+    // SAFETY (every `unsafe` block below): `Avx8` values exist only on paths that checked for
+    // AVX2 at run time (`query::avx2_fma`); the intrinsics need AVX.
+    use super::{Avx8, Avx8Mask, Lanes};
+    use std::arch::x86_64::*;
+
+    impl std::ops::BitAnd for Avx8Mask {
+        type Output = Avx8Mask;
+        #[inline(always)]
+        fn bitand(self, rhs: Avx8Mask) -> Avx8Mask {
+            Avx8Mask(unsafe { _mm256_and_ps(self.0, rhs.0) })
+        }
+    }
+
+    impl std::ops::Sub for Avx8 {
+        type Output = Avx8;
+        #[inline(always)]
+        fn sub(self, rhs: Avx8) -> Avx8 {
+            Avx8(unsafe { _mm256_sub_ps(self.0, rhs.0) })
+        }
+    }
+
+    impl std::ops::Mul for Avx8 {
+        type Output = Avx8;
+        #[inline(always)]
+        fn mul(self, rhs: Avx8) -> Avx8 {
+            Avx8(unsafe { _mm256_mul_ps(self.0, rhs.0) })
+        }
+    }
+
+    impl Avx8 {
+        #[inline(always)]
+        fn to_array(self) -> [f32; 8] {
+            // SAFETY: both are 32 bytes of plain f32 data.
+            unsafe { std::mem::transmute::<__m256, [f32; 8]>(self.0) }
+        }
+
+        #[inline(always)]
+        fn halves(self) -> (__m128, __m128) {
+            unsafe {
+                (
+                    _mm256_castps256_ps128(self.0),
+                    _mm256_extractf128_ps::<1>(self.0),
+                )
+            }
+        }
+    }
+
+    impl Lanes for Avx8 {
+        const N: usize = 8;
+        type Mask = Avx8Mask;
+        #[inline(always)]
+        fn splat(v: f32) -> Self {
+            Avx8(unsafe { _mm256_set1_ps(v) })
+        }
+        #[inline(always)]
+        fn from_fn(mut f: impl FnMut(usize) -> f32) -> Self {
+            let a = [f(0), f(1), f(2), f(3), f(4), f(5), f(6), f(7)];
+            // SAFETY: `loadu` reads 32 bytes from a `[f32; 8]`.
+            Avx8(unsafe { _mm256_loadu_ps(a.as_ptr()) })
+        }
+        #[inline(always)]
+        fn lane(&self, i: usize) -> f32 {
+            self.to_array()[i]
+        }
+        #[inline(always)]
+        fn set_lane(&mut self, i: usize, v: f32) {
+            let mut a = self.to_array();
+            a[i] = v;
+            *self = Avx8(unsafe { _mm256_loadu_ps(a.as_ptr()) });
+        }
+        #[inline(always)]
+        fn div(self, rhs: Self) -> Self {
+            Avx8(unsafe { _mm256_div_ps(self.0, rhs.0) })
+        }
+        #[inline(always)]
+        fn add(self, rhs: Self) -> Self {
+            Avx8(unsafe { _mm256_add_ps(self.0, rhs.0) })
+        }
+        #[inline(always)]
+        fn min(self, rhs: Self) -> Self {
+            // `vminps`: the second operand when either is NaN, as SSE `minps`.
+            Avx8(unsafe { _mm256_min_ps(self.0, rhs.0) })
+        }
+        #[inline(always)]
+        fn max(self, rhs: Self) -> Self {
+            Avx8(unsafe { _mm256_max_ps(self.0, rhs.0) })
+        }
+        #[inline(always)]
+        fn abs(self) -> Self {
+            Avx8(unsafe { _mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0) })
+        }
+        #[inline(always)]
+        fn copysign(self, sign: Self) -> Self {
+            unsafe {
+                let m = _mm256_set1_ps(-0.0);
+                Avx8(_mm256_or_ps(
+                    _mm256_and_ps(sign.0, m),
+                    _mm256_andnot_ps(m, self.0),
+                ))
+            }
+        }
+        #[inline(always)]
+        fn lt(self, rhs: Self) -> Avx8Mask {
+            Avx8Mask(unsafe { _mm256_cmp_ps::<_CMP_LT_OQ>(self.0, rhs.0) })
+        }
+        #[inline(always)]
+        fn le(self, rhs: Self) -> Avx8Mask {
+            Avx8Mask(unsafe { _mm256_cmp_ps::<_CMP_LE_OQ>(self.0, rhs.0) })
+        }
+        #[inline(always)]
+        fn ge(self, rhs: Self) -> Avx8Mask {
+            Avx8Mask(unsafe { _mm256_cmp_ps::<_CMP_GE_OQ>(self.0, rhs.0) })
+        }
+        #[inline(always)]
+        fn select(mask: Avx8Mask, a: Self, b: Self) -> Self {
+            Avx8(unsafe { _mm256_blendv_ps(b.0, a.0, mask.0) })
+        }
+        #[inline(always)]
+        fn bitmask(mask: Avx8Mask) -> u32 {
+            (unsafe { _mm256_movemask_ps(mask.0) }) as u32
+        }
+        #[inline(always)]
+        fn min_element(self) -> f32 {
+            let (lo, hi) = self.halves();
+            glam::Vec4::from(unsafe { _mm_min_ps(lo, hi) }).min_element()
+        }
+        #[inline(always)]
+        fn max_element(self) -> f32 {
+            let (lo, hi) = self.halves();
+            glam::Vec4::from(unsafe { _mm_max_ps(lo, hi) }).max_element()
+        }
+    }
+}
+
+/// A packet of rays, structure of arrays: component `k` of ray `i` is lane `i` of `o[k]`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Packet<V: Lanes> {
+    pub(crate) o: [V; 3],
+    pub(crate) d: [V; 3],
+    pub(crate) inv: [V; 3],
+    pub(crate) tmin: V,
+    pub(crate) tmax: V,
+}
+
+/// obvhs's `safe_inverse` per lane: `1/x`, or `±1/ε` where `|x| ≤ ε`.
+#[inline(always)]
+fn safe_inverse<V: Lanes>(x: V) -> V {
+    let tiny = x.abs().le(V::splat(f32::EPSILON));
+    let big = V::splat(1.0 / f32::EPSILON).copysign(x);
+    V::select(tiny, big, V::splat(1.0).div(x))
+}
+
+impl<V: Lanes> Packet<V> {
+    /// The packet of `V::N` obvhs rays (`r.len() == V::N`).
+    #[inline(always)]
+    pub(crate) fn new(r: &[Ray]) -> Packet<V> {
+        debug_assert_eq!(r.len(), V::N);
+        let v = |f: fn(&Ray) -> f32| V::from_fn(|i| f(&r[i]));
         Packet {
             o: [v(|r| r.origin.x), v(|r| r.origin.y), v(|r| r.origin.z)],
             d: [
@@ -56,39 +306,39 @@ impl Packet {
     /// Lane `l` as a single ray.
     #[inline(always)]
     pub(crate) fn lane(&self, l: usize) -> Ray {
-        let v = |a: &[Vec4; 3]| glam::Vec3A::new(a[0][l], a[1][l], a[2][l]);
+        let v = |a: &[V; 3]| glam::Vec3A::new(a[0].lane(l), a[1].lane(l), a[2].lane(l));
         Ray {
             origin: v(&self.o),
             direction: v(&self.d),
             inv_direction: v(&self.inv),
-            tmin: self.tmin[l],
-            tmax: self.tmax[l],
+            tmin: self.tmin.lane(l),
+            tmax: self.tmax.lane(l),
         }
     }
 
     /// The packet in another frame (rigid `m`: distances unchanged). Directions get `+0.0` like
     /// single rays (no −0.0 components).
     #[inline(always)]
-    pub(crate) fn transformed(&self, m: &Affine3A) -> Packet {
+    pub(crate) fn transformed(&self, m: &Affine3A) -> Packet<V> {
         let (a, b, c, t) = (
             m.matrix3.x_axis,
             m.matrix3.y_axis,
             m.matrix3.z_axis,
             m.translation,
         );
-        let s = Vec4::splat;
+        let s = V::splat;
         let [ox, oy, oz] = self.o;
         let [dx, dy, dz] = self.d;
         // Same operation order as `Affine3A::transform_point3a` / `transform_vector3a` per lane.
         let o = [
-            ox * s(a.x) + oy * s(b.x) + oz * s(c.x) + s(t.x),
-            ox * s(a.y) + oy * s(b.y) + oz * s(c.y) + s(t.y),
-            ox * s(a.z) + oy * s(b.z) + oz * s(c.z) + s(t.z),
+            (ox * s(a.x)).add(oy * s(b.x)).add(oz * s(c.x)).add(s(t.x)),
+            (ox * s(a.y)).add(oy * s(b.y)).add(oz * s(c.y)).add(s(t.y)),
+            (ox * s(a.z)).add(oy * s(b.z)).add(oz * s(c.z)).add(s(t.z)),
         ];
         let d = [
-            dx * s(a.x) + dy * s(b.x) + dz * s(c.x) + Vec4::ZERO,
-            dx * s(a.y) + dy * s(b.y) + dz * s(c.y) + Vec4::ZERO,
-            dx * s(a.z) + dy * s(b.z) + dz * s(c.z) + Vec4::ZERO,
+            (dx * s(a.x)).add(dy * s(b.x)).add(dz * s(c.x)).add(s(0.0)),
+            (dx * s(a.y)).add(dy * s(b.y)).add(dz * s(c.y)).add(s(0.0)),
+            (dx * s(a.z)).add(dy * s(b.z)).add(dz * s(c.z)).add(s(0.0)),
         ];
         Packet {
             o,
@@ -100,26 +350,26 @@ impl Packet {
     }
 }
 
-/// Entry distances of the four rays into the node's box (∞ for lanes that miss) and the hit mask.
+/// Entry distances of the rays into the node's box (∞ for lanes that miss) and the hit mask.
 #[inline(always)]
-fn slab4(node: &Bvh2Node, p: &Packet) -> (Vec4, u32) {
+fn slab<V: Lanes>(node: &Bvh2Node, p: &Packet<V>) -> (V, u32) {
     let b = node.aabb();
     let (lo, hi) = (b.min, b.max);
-    let s = Vec4::splat;
+    let s = V::splat;
     let (x0, x1) = ((s(lo.x) - p.o[0]) * p.inv[0], (s(hi.x) - p.o[0]) * p.inv[0]);
     let (y0, y1) = ((s(lo.y) - p.o[1]) * p.inv[1], (s(hi.y) - p.o[1]) * p.inv[1]);
     let (z0, z1) = ((s(lo.z) - p.o[2]) * p.inv[2], (s(hi.z) - p.o[2]) * p.inv[2]);
     let near = x0.min(x1).max(y0.min(y1)).max(z0.min(z1)).max(p.tmin);
-    let far = x0.max(x1).min(y0.max(y1)).min(z0.max(z1)) * FAR_SCALE;
-    let hit = near.cmple(far.min(p.tmax));
-    (Vec4::select(hit, near, Vec4::INFINITY), hit.bitmask())
+    let far = x0.max(x1).min(y0.max(y1)).min(z0.max(z1)) * s(FAR_SCALE);
+    let hit = near.le(far.min(p.tmax));
+    (V::select(hit, near, s(f32::INFINITY)), V::bitmask(hit))
 }
 
-/// Möller–Trumbore on four rays; the same arithmetic as the single-ray `intersect`, per lane.
+/// Möller–Trumbore on a packet; the same arithmetic as the single-ray `intersect`, per lane.
 /// Distances of the lanes that hit within `[tmin, tmax)`, else ∞.
 #[inline(always)]
-pub(crate) fn intersect4(tri: &RtTriangle, p: &Packet) -> Vec4 {
-    let s = Vec4::splat;
+pub(crate) fn intersect<V: Lanes>(tri: &RtTriangle, p: &Packet<V>) -> V {
+    let s = V::splat;
     let (c0, c1, c2) = (
         s(tri.v0.x) - p.o[0],
         s(tri.v0.y) - p.o[1],
@@ -129,29 +379,25 @@ pub(crate) fn intersect4(tri: &RtTriangle, p: &Packet) -> Vec4 {
     // r = d × c
     let (r0, r1, r2) = (d1 * c2 - d2 * c1, d2 * c0 - d0 * c2, d0 * c1 - d1 * c0);
     let (n, e1, e2) = (tri.ng, tri.e1, tri.e2);
-    let inv_det = Vec4::ONE / (d0 * s(n.x) + d1 * s(n.y) + d2 * s(n.z));
-    let u = (r0 * s(e2.x) + r1 * s(e2.y) + r2 * s(e2.z)) * inv_det;
-    let v = (r0 * s(e1.x) + r1 * s(e1.y) + r2 * s(e1.z)) * inv_det;
-    let t = (c0 * s(n.x) + c1 * s(n.y) + c2 * s(n.z)) * inv_det;
-    let zero = Vec4::ZERO;
-    let ok: BVec4A = u.cmpge(zero)
-        & v.cmpge(zero)
-        & (u + v).cmple(Vec4::ONE)
-        & t.cmpge(p.tmin)
-        & t.cmplt(p.tmax);
-    Vec4::select(ok, t, Vec4::INFINITY)
+    let inv_det = s(1.0).div((d0 * s(n.x)).add(d1 * s(n.y)).add(d2 * s(n.z)));
+    let u = (r0 * s(e2.x)).add(r1 * s(e2.y)).add(r2 * s(e2.z)) * inv_det;
+    let v = (r0 * s(e1.x)).add(r1 * s(e1.y)).add(r2 * s(e1.z)) * inv_det;
+    let t = (c0 * s(n.x)).add(c1 * s(n.y)).add(c2 * s(n.z)) * inv_det;
+    let zero = s(0.0);
+    let ok = u.ge(zero) & v.ge(zero) & u.add(v).le(s(1.0)) & t.ge(p.tmin) & t.lt(p.tmax);
+    V::select(ok, t, s(f32::INFINITY))
 }
 
-/// Visit the leaves any of the four rays reaches. `leaf(first, count, packet)` handles primitives
+/// Visit the leaves any of the rays reaches. `leaf(first, count, packet)` handles primitives
 /// `first .. first + count` for all lanes, may lower lanes of `packet.tmax` (a lane with
 /// `tmax < tmin` is finished) and returns `false` to stop. The tree's depth must be below [`STACK`].
 #[inline(always)]
-pub(crate) fn traverse4<F>(nodes: &[Bvh2Node], p: &mut Packet, mut leaf: F)
+pub(crate) fn traverse<V: Lanes, F>(nodes: &[Bvh2Node], p: &mut Packet<V>, mut leaf: F)
 where
-    F: FnMut(u32, u32, &mut Packet) -> bool,
+    F: FnMut(u32, u32, &mut Packet<V>) -> bool,
 {
     let Some(root) = nodes.first() else { return };
-    if slab4(root, p).1 == 0 {
+    if slab(root, p).1 == 0 {
         return;
     }
     // Deferred nodes with the smallest entry distance of their lanes.
@@ -166,8 +412,8 @@ where
         } else {
             let i = node.first_index as usize;
             let (a, b) = (&nodes[i], &nodes[i + 1]);
-            let (na, ma) = slab4(a, p);
-            let (nb, mb) = slab4(b, p);
+            let (na, ma) = slab(a, p);
+            let (nb, mb) = slab(b, p);
             match (ma != 0, mb != 0) {
                 (true, true) => {
                     let (da, db) = (na.min_element(), nb.min_element());

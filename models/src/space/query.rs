@@ -1,14 +1,17 @@
 //! Ray queries: closest hit, any hit, batches, transmission.
 
-use glam::{DVec3, Vec3A, Vec4};
+use glam::{DVec3, Vec3A};
 use obvhs::ray::RayHit;
 use rayon::prelude::*;
 
 use super::accel::{Instance, Space};
-use super::packet::{Packet, traverse4};
+#[cfg(target_arch = "x86_64")]
+use super::packet::Avx8;
+use super::packet::{self, Lanes, Packet};
 use super::traverse::traverse;
 use super::{Hit, Ray};
 use crate::environment::material::MaterialId;
+use glam::Vec4;
 
 /// Rays per rayon task in the batch queries (large enough to amortise scheduling, small enough to
 /// balance 2–16 threads on a LiDAR frame; consecutive rays stay on one thread, keeping coherence).
@@ -58,21 +61,21 @@ pub(crate) fn surface_epsilon(p: DVec3, scale: f64) -> f64 {
     1e-5 + 8.0 * f64::from(f32::EPSILON) * (p.abs().max_element() + scale)
 }
 
-/// Whether four rays are worth tracing as a packet: a common origin (within 1 mm) and directions
-/// within ≈ 8° of the first one (a LiDAR column, a camera tile).
+/// Whether rays are worth tracing as a packet: a common origin (within 1 mm) and directions
+/// within ≈ 8° of the first one (a LiDAR column, a camera row).
 #[inline(always)]
-fn coherent(rays: &[Ray; 4]) -> bool {
+fn coherent(rays: &[Ray]) -> bool {
     let (o, d) = (rays[0].origin, rays[0].direction);
     rays[1..]
         .iter()
         .all(|r| (r.origin - o).abs().max_element() <= 1e-3 && r.direction.dot(d) >= 0.99)
 }
 
-/// Whether four occlusion rays are worth tracing as a packet: [`coherent`], or (nearly) parallel
+/// Whether occlusion rays are worth tracing as a packet: [`coherent`], or (nearly) parallel
 /// rays from nearby points (shadow rays towards the sun from neighbouring pixels' surface points:
 /// origins within 0.5 m, directions within ≈ 8°).
 #[inline(always)]
-fn coherent_occlusion(rays: &[Ray; 4]) -> bool {
+fn coherent_occlusion(rays: &[Ray]) -> bool {
     let (o, d) = (rays[0].origin, rays[0].direction);
     rays[1..]
         .iter()
@@ -181,44 +184,57 @@ impl Space {
         best
     }
 
-    /// [`Space::closest_raw`] for a packet of four coherent rays (same results per ray).
+    /// [`Space::closest_raw`] for a packet of `N` coherent rays (same results per ray), in lanes
+    /// `V` (`V::N == N`).
     #[inline(always)]
-    pub(crate) fn closest_raw4(&self, rays: &[obvhs::ray::Ray; 4]) -> [Option<RawHit>; 4] {
+    pub(crate) fn closest_raw_packet<V: Lanes, const N: usize>(
+        &self,
+        rays: &[obvhs::ray::Ray; N],
+    ) -> [Option<RawHit>; N] {
+        debug_assert_eq!(V::N, N);
         if !self.tlas_shallow {
             return rays.map(|r| self.closest_raw(&r));
         }
-        let mut p = Packet::new(rays);
-        let mut prim = [u32::MAX; 4];
-        let mut instance = [STATIC; 4];
-        self.static_blas.closest4(&mut p, &mut prim);
+        let mut p = Packet::<V>::new(rays);
+        let none = V::splat(f32::from_bits(u32::MAX));
+        let mut prim = none;
+        let mut instance = [STATIC; N];
+        self.static_blas.closest_packet(&mut p, &mut prim);
         if !self.tlas.nodes.is_empty() {
-            traverse4(&self.tlas.nodes, &mut p, |first, count, p| {
-                for q in first..first + count {
-                    let i = self.tlas.primitive_indices[q as usize];
-                    let inst = &self.instances[i as usize];
-                    let mut local = p.transformed(&inst.scene_to_mesh);
-                    let mut local_prim = [u32::MAX; 4];
-                    self.meshes[inst.desc.mesh.0 as usize].closest4(&mut local, &mut local_prim);
-                    let better = local.tmax.cmplt(p.tmax);
-                    let m = better.bitmask();
-                    if m != 0 {
-                        p.tmax = Vec4::select(better, local.tmax, p.tmax);
-                        for l in 0..4 {
-                            if m & (1 << l) != 0 {
-                                prim[l] = local_prim[l];
-                                instance[l] = i;
+            packet::traverse(
+                &self.tlas.nodes,
+                &mut p,
+                #[inline(always)]
+                |first, count, p| {
+                    for q in first..first + count {
+                        let i = self.tlas.primitive_indices[q as usize];
+                        let inst = &self.instances[i as usize];
+                        let mut local = p.transformed(&inst.scene_to_mesh);
+                        let mut local_prim = none;
+                        self.meshes[inst.desc.mesh.0 as usize]
+                            .closest_packet(&mut local, &mut local_prim);
+                        let better = local.tmax.lt(p.tmax);
+                        let m = V::bitmask(better);
+                        if m != 0 {
+                            p.tmax = V::select(better, local.tmax, p.tmax);
+                            prim = V::select(better, local_prim, prim);
+                            for (l, slot) in instance.iter_mut().enumerate() {
+                                if m & (1 << l) != 0 {
+                                    *slot = i;
+                                }
                             }
                         }
                     }
-                }
-                true
-            });
+                    true
+                },
+            );
         }
         std::array::from_fn(|l| {
-            (prim[l] != u32::MAX).then(|| RawHit {
-                t: p.tmax[l],
+            let prim = prim.lane(l).to_bits();
+            (prim != u32::MAX).then(|| RawHit {
+                t: p.tmax.lane(l),
                 instance: instance[l],
-                prim: prim[l],
+                prim,
             })
         })
     }
@@ -256,29 +272,41 @@ impl Space {
         }
     }
 
-    /// [`Space::occluded_raw`] for a packet of four coherent rays.
+    /// [`Space::occluded_raw`] for a packet of `N` coherent rays, in lanes `V` (`V::N == N`).
     #[inline(always)]
-    pub(crate) fn occluded_raw4(&self, rays: &[obvhs::ray::Ray; 4]) -> [bool; 4] {
+    pub(crate) fn occluded_raw_packet<V: Lanes, const N: usize>(
+        &self,
+        rays: &[obvhs::ray::Ray; N],
+    ) -> [bool; N] {
+        debug_assert_eq!(V::N, N);
         if !self.tlas_shallow {
             return rays.map(|r| self.occluded_raw(&r));
         }
-        let mut p = Packet::new(rays);
-        let mut done = self.static_blas.occluded4(&mut p);
-        if done != 0b1111 && !self.tlas.nodes.is_empty() {
-            traverse4(&self.tlas.nodes, &mut p, |first, count, p| {
-                for q in first..first + count {
-                    let inst = &self.instances[self.tlas.primitive_indices[q as usize] as usize];
-                    let mut local = p.transformed(&inst.scene_to_mesh);
-                    let hit = self.meshes[inst.desc.mesh.0 as usize].occluded4(&mut local);
-                    for l in 0..4 {
-                        if hit & (1 << l) != 0 {
-                            p.tmax[l] = f32::NEG_INFINITY;
+        let all = (1u32 << N) - 1;
+        let mut p = Packet::<V>::new(rays);
+        let mut done = self.static_blas.occluded_packet(&mut p);
+        if done != all && !self.tlas.nodes.is_empty() {
+            packet::traverse(
+                &self.tlas.nodes,
+                &mut p,
+                #[inline(always)]
+                |first, count, p| {
+                    for q in first..first + count {
+                        let inst =
+                            &self.instances[self.tlas.primitive_indices[q as usize] as usize];
+                        let mut local = p.transformed(&inst.scene_to_mesh);
+                        let hit =
+                            self.meshes[inst.desc.mesh.0 as usize].occluded_packet(&mut local);
+                        for l in 0..N {
+                            if hit & (1 << l) != 0 {
+                                p.tmax.set_lane(l, f32::NEG_INFINITY);
+                            }
                         }
+                        done |= hit;
                     }
-                    done |= hit;
-                }
-                done != 0b1111
-            });
+                    done != all
+                },
+            );
         }
         std::array::from_fn(|l| done & (1 << l) != 0)
     }
@@ -375,10 +403,13 @@ impl Space {
                 if j + 4 <= rays.len() && instances[j..j + 4].iter().all(|&i| i == k) {
                     let group: &[Ray; 4] = rays[j..j + 4].try_into().expect("four rays");
                     if coherent(group) {
-                        let mut local = Packet::new(&group.map(|r| f32_ray(&r)))
-                            .transformed(&inst.scene_to_mesh);
-                        let mut prim = [u32::MAX; 4];
-                        blas.closest4(&mut local, &mut prim);
+                        let mut local = Packet::<Vec4>::new(&std::array::from_fn::<_, 4, _>(|l| {
+                            f32_ray(&group[l])
+                        }))
+                        .transformed(&inst.scene_to_mesh);
+                        let mut prim = Vec4::splat(f32::from_bits(u32::MAX));
+                        blas.closest_packet(&mut local, &mut prim);
+                        let prim = prim.to_array().map(f32::to_bits);
                         for l in 0..4 {
                             out[j + l] = (prim[l] != u32::MAX).then(|| {
                                 space.finish_hit(
@@ -441,76 +472,101 @@ impl Space {
     /// same IEEE operations (no FMA contraction), so results do not depend on the path.
     fn trace_chunk(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
         #[inline(always)]
-        fn body(space: &Space, rays: &[Ray], out: &mut [Option<Hit>]) {
-            let mut groups = rays.chunks_exact(4);
-            let mut outs = out.chunks_exact_mut(4);
-            for (group, out) in (&mut groups).zip(&mut outs) {
-                let group: &[Ray; 4] = group.try_into().expect("chunks of 4");
-                if coherent(group) {
-                    let raw = space.closest_raw4(&group.map(|r| f32_ray(&r)));
-                    for ((ray, raw), hit) in group.iter().zip(raw).zip(out) {
-                        *hit = raw.map(|raw| space.finish_hit(ray, raw));
-                    }
-                } else {
-                    for (ray, hit) in group.iter().zip(out) {
-                        *hit = space
-                            .closest_raw(&f32_ray(ray))
-                            .map(|raw| space.finish_hit(ray, raw));
-                    }
+        fn body<const AVX: bool>(space: &Space, rays: &[Ray], out: &mut [Option<Hit>]) {
+            // Eight coherent rays as one packet (AVX), else four, else one by one.
+            #[inline(always)]
+            fn group<V: Lanes, const N: usize>(
+                space: &Space,
+                rays: &[Ray],
+                out: &mut [Option<Hit>],
+            ) {
+                let group: &[Ray; N] = rays.try_into().expect("a group of N rays");
+                let raw =
+                    space.closest_raw_packet::<V, N>(&std::array::from_fn(|l| f32_ray(&group[l])));
+                for ((ray, raw), hit) in group.iter().zip(raw).zip(out) {
+                    *hit = raw.map(|raw| space.finish_hit(ray, raw));
                 }
             }
-            for (ray, hit) in groups.remainder().iter().zip(outs.into_remainder()) {
-                *hit = space
+            let single = |ray: &Ray| {
+                space
                     .closest_raw(&f32_ray(ray))
-                    .map(|raw| space.finish_hit(ray, raw));
+                    .map(|raw| space.finish_hit(ray, raw))
+            };
+            let mut j = 0;
+            while j < rays.len() {
+                let rest = rays.len() - j;
+                #[cfg(target_arch = "x86_64")]
+                if AVX && rest >= 8 && coherent(&rays[j..j + 8]) {
+                    group::<Avx8, 8>(space, &rays[j..j + 8], &mut out[j..j + 8]);
+                    j += 8;
+                    continue;
+                }
+                if rest >= 4 && coherent(&rays[j..j + 4]) {
+                    group::<Vec4, 4>(space, &rays[j..j + 4], &mut out[j..j + 4]);
+                    j += 4;
+                } else {
+                    out[j] = single(&rays[j]);
+                    j += 1;
+                }
             }
         }
         #[cfg(target_arch = "x86_64")]
         {
             #[target_feature(enable = "avx2,fma")]
             fn avx2(space: &Space, rays: &[Ray], out: &mut [Option<Hit>]) {
-                body(space, rays, out)
+                body::<true>(space, rays, out)
             }
             if avx2_fma() {
                 // SAFETY: the CPU supports AVX2 and FMA (checked at run time just above).
                 return unsafe { avx2(self, rays, out) };
             }
         }
-        body(self, rays, out)
+        body::<false>(self, rays, out)
     }
 
     /// [`Space::trace_chunk`] for occlusion.
     fn occluded_chunk(&self, rays: &[Ray], out: &mut [bool]) {
         #[inline(always)]
-        fn body(space: &Space, rays: &[Ray], out: &mut [bool]) {
-            let mut groups = rays.chunks_exact(4);
-            let mut outs = out.chunks_exact_mut(4);
-            for (group, out) in (&mut groups).zip(&mut outs) {
-                let group: &[Ray; 4] = group.try_into().expect("chunks of 4");
-                if coherent_occlusion(group) {
-                    out.copy_from_slice(&space.occluded_raw4(&group.map(|r| f32_ray(&r))));
-                } else {
-                    for (ray, o) in group.iter().zip(out) {
-                        *o = space.occluded_raw(&f32_ray(ray));
-                    }
-                }
+        fn body<const AVX: bool>(space: &Space, rays: &[Ray], out: &mut [bool]) {
+            // Eight coherent rays as one packet (AVX), else four, else one by one.
+            #[inline(always)]
+            fn group<V: Lanes, const N: usize>(space: &Space, rays: &[Ray], out: &mut [bool]) {
+                let group: &[Ray; N] = rays.try_into().expect("a group of N rays");
+                out.copy_from_slice(
+                    &space
+                        .occluded_raw_packet::<V, N>(&std::array::from_fn(|l| f32_ray(&group[l]))),
+                );
             }
-            for (ray, o) in groups.remainder().iter().zip(outs.into_remainder()) {
-                *o = space.occluded_raw(&f32_ray(ray));
+            let mut j = 0;
+            while j < rays.len() {
+                let rest = rays.len() - j;
+                #[cfg(target_arch = "x86_64")]
+                if AVX && rest >= 8 && coherent_occlusion(&rays[j..j + 8]) {
+                    group::<Avx8, 8>(space, &rays[j..j + 8], &mut out[j..j + 8]);
+                    j += 8;
+                    continue;
+                }
+                if rest >= 4 && coherent_occlusion(&rays[j..j + 4]) {
+                    group::<Vec4, 4>(space, &rays[j..j + 4], &mut out[j..j + 4]);
+                    j += 4;
+                } else {
+                    out[j] = space.occluded_raw(&f32_ray(&rays[j]));
+                    j += 1;
+                }
             }
         }
         #[cfg(target_arch = "x86_64")]
         {
             #[target_feature(enable = "avx2,fma")]
             fn avx2(space: &Space, rays: &[Ray], out: &mut [bool]) {
-                body(space, rays, out)
+                body::<true>(space, rays, out)
             }
             if avx2_fma() {
                 // SAFETY: the CPU supports AVX2 and FMA (checked at run time just above).
                 return unsafe { avx2(self, rays, out) };
             }
         }
-        body(self, rays, out)
+        body::<false>(self, rays, out)
     }
 
     /// Whether the straight segment between two points (typically on surfaces) is free of surfaces,
