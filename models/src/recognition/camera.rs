@@ -57,6 +57,7 @@
 use glam::{DMat3, DVec2, DVec3};
 use osiris_proto::{id, osi3, perception};
 use rand::{Rng as _, SeedableRng as _, rngs::SmallRng};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::camera::lens::Lens;
@@ -414,27 +415,56 @@ impl CameraRecognition {
         self.stats.resize(n_obj, Stats::default());
         let lum = (input.luminance.len() >= n).then_some(input.luminance);
 
-        // 1. Visible pixels.
-        for v in 0..h {
-            for u in 0..w {
-                let i = v * w + u;
-                let k = aux.object_index[i];
-                if k == NO_OBJECT || k as usize >= n_obj {
-                    continue;
+        // 1. Visible pixels: blocks of rows in parallel, merged in block order.
+        const BLOCK_ROWS: usize = 32;
+        let blocks: Vec<Vec<(u32, Stats)>> = (0..h.div_ceil(BLOCK_ROWS))
+            .into_par_iter()
+            .map(|b| {
+                let mut local: Vec<(u32, Stats)> = Vec::new();
+                // The object of the previous pixel (runs of one object are the rule).
+                let mut last = usize::MAX;
+                for v in b * BLOCK_ROWS..((b + 1) * BLOCK_ROWS).min(h) {
+                    for u in 0..w {
+                        let i = v * w + u;
+                        let k = aux.object_index[i];
+                        if k == NO_OBJECT || k as usize >= n_obj {
+                            continue;
+                        }
+                        if last >= local.len() || local[last].0 != k {
+                            last = match local.iter().position(|e| e.0 == k) {
+                                Some(p) => p,
+                                None => {
+                                    local.push((k, Stats::default()));
+                                    local.len() - 1
+                                }
+                            };
+                        }
+                        let s = &mut local[last].1;
+                        s.count += 1;
+                        s.u_min = s.u_min.min(u);
+                        s.u_max = s.u_max.max(u);
+                        s.v_min = s.v_min.min(v);
+                        s.v_max = s.v_max.max(v);
+                        if let Some(l) = lum {
+                            s.lum_sum += l[i] as f64;
+                        }
+                        if let Some(&d) = aux.depth_m.get(i) {
+                            s.depth_min = s.depth_min.min(d);
+                        }
+                    }
                 }
-                let s = &mut self.stats[k as usize];
-                s.count += 1;
-                s.u_min = s.u_min.min(u);
-                s.u_max = s.u_max.max(u);
-                s.v_min = s.v_min.min(v);
-                s.v_max = s.v_max.max(v);
-                if let Some(l) = lum {
-                    s.lum_sum += l[i] as f64;
-                }
-                if let Some(&d) = aux.depth_m.get(i) {
-                    s.depth_min = s.depth_min.min(d);
-                }
-            }
+                local
+            })
+            .collect();
+        for (k, b) in blocks.into_iter().flatten() {
+            let s = &mut self.stats[k as usize];
+            s.count += b.count;
+            s.u_min = s.u_min.min(b.u_min);
+            s.u_max = s.u_max.max(b.u_max);
+            s.v_min = s.v_min.min(b.v_min);
+            s.v_max = s.v_max.max(b.v_max);
+            s.lum_sum += b.lum_sum;
+            s.depth_min = s.depth_min.min(b.depth_min);
         }
 
         let gt = input.ground_truth;
@@ -722,15 +752,14 @@ fn expected_pixels(lens: &Lens, centre_s: DVec3, rot_s: DMat3, half: DVec3) -> u
     let rt = rot_s.transpose();
     let origin_b = rt * (-centre_s);
     let rays = lens.ray_directions();
-    let mut count = 0u64;
-    for v in va..=vb {
-        for u in ua..=ub {
-            if ray_hits_box(origin_b, rt * rays[v * w + u].as_dvec3(), half) {
-                count += 1;
-            }
-        }
-    }
-    count
+    (va..=vb)
+        .into_par_iter()
+        .map(|v| {
+            (ua..=ub)
+                .filter(|&u| ray_hits_box(origin_b, rt * rays[v * w + u].as_dvec3(), half))
+                .count() as u64
+        })
+        .sum()
 }
 
 /// The OSI detected object (sensor frame).

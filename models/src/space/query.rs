@@ -389,8 +389,42 @@ impl Space {
             instances.len(),
             out.len()
         );
+        /// `rays` (`N` of them, coherent) against instance `k` alone, as one packet.
         #[inline(always)]
-        fn body(space: &Space, rays: &[Ray], instances: &[u32], out: &mut [Option<Hit>]) {
+        fn group<V: Lanes, const N: usize>(
+            space: &Space,
+            rays: &[Ray],
+            k: u32,
+            inst: &Instance,
+            out: &mut [Option<Hit>],
+        ) {
+            let blas = &space.meshes[inst.desc.mesh.0 as usize];
+            let mut local =
+                Packet::<V>::new(&std::array::from_fn::<_, N, _>(|l| f32_ray(&rays[l])))
+                    .transformed(&inst.scene_to_mesh);
+            let mut prim = V::splat(f32::from_bits(u32::MAX));
+            blas.closest_packet(&mut local, &mut prim);
+            for (l, (ray, o)) in rays.iter().zip(out).enumerate() {
+                let p = prim.lane(l).to_bits();
+                *o = (p != u32::MAX).then(|| {
+                    space.finish_hit(
+                        ray,
+                        RawHit {
+                            t: local.tmax.lane(l),
+                            instance: k,
+                            prim: p,
+                        },
+                    )
+                });
+            }
+        }
+        #[inline(always)]
+        fn body<const AVX: bool>(
+            space: &Space,
+            rays: &[Ray],
+            instances: &[u32],
+            out: &mut [Option<Hit>],
+        ) {
             let mut j = 0;
             while j < rays.len() {
                 let k = instances[j];
@@ -399,32 +433,22 @@ impl Space {
                     j += 1;
                     continue;
                 };
-                let blas = &space.meshes[inst.desc.mesh.0 as usize];
-                if j + 4 <= rays.len() && instances[j..j + 4].iter().all(|&i| i == k) {
-                    let group: &[Ray; 4] = rays[j..j + 4].try_into().expect("four rays");
-                    if coherent(group) {
-                        let mut local = Packet::<Vec4>::new(&std::array::from_fn::<_, 4, _>(|l| {
-                            f32_ray(&group[l])
-                        }))
-                        .transformed(&inst.scene_to_mesh);
-                        let mut prim = Vec4::splat(f32::from_bits(u32::MAX));
-                        blas.closest_packet(&mut local, &mut prim);
-                        let prim = prim.to_array().map(f32::to_bits);
-                        for l in 0..4 {
-                            out[j + l] = (prim[l] != u32::MAX).then(|| {
-                                space.finish_hit(
-                                    &group[l],
-                                    RawHit {
-                                        t: local.tmax[l],
-                                        instance: k,
-                                        prim: prim[l],
-                                    },
-                                )
-                            });
-                        }
-                        j += 4;
-                        continue;
-                    }
+                // The run of rays against the same instance from here, if coherent.
+                let packet = |n: usize| {
+                    j + n <= rays.len()
+                        && instances[j..j + n].iter().all(|&i| i == k)
+                        && coherent(&rays[j..j + n])
+                };
+                #[cfg(target_arch = "x86_64")]
+                if AVX && packet(8) {
+                    group::<Avx8, 8>(space, &rays[j..j + 8], k, inst, &mut out[j..j + 8]);
+                    j += 8;
+                    continue;
+                }
+                if packet(4) {
+                    group::<Vec4, 4>(space, &rays[j..j + 4], k, inst, &mut out[j..j + 4]);
+                    j += 4;
+                    continue;
                 }
                 out[j] = space.closest_hit_on_instance(&rays[j], k);
                 j += 1;
@@ -434,14 +458,14 @@ impl Space {
         {
             #[target_feature(enable = "avx2,fma")]
             fn avx2(space: &Space, rays: &[Ray], instances: &[u32], out: &mut [Option<Hit>]) {
-                body(space, rays, instances, out)
+                body::<true>(space, rays, instances, out)
             }
             if avx2_fma() {
                 // SAFETY: the CPU supports AVX2 and FMA (checked at run time just above).
                 return unsafe { avx2(self, rays, instances, out) };
             }
         }
-        body(self, rays, instances, out)
+        body::<false>(self, rays, instances, out)
     }
 
     /// The closest surface on the ray with instance `instance` left out (what lies behind it).
