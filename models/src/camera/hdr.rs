@@ -371,7 +371,7 @@ impl HdrPipeline {
         out.analog_gain = first.analog_gain;
         out.row_time_s = first.row_time_s;
         out.exposure_index = 0;
-        out.data.clear();
+        // Every sample is written below (or zeroed where the captures do not match).
         out.data.resize(w * h, 0);
         // The companded image: header now, rows in the merge pass.
         let mut companded = companded;
@@ -383,6 +383,7 @@ impl HdrPipeline {
             _ => None,
         };
         if captures.iter().take(n).any(|c| c.data.len() != w * h) {
+            out.data.fill(0);
             if let Some(c) = companded {
                 self.compand(out, c);
             }
@@ -438,7 +439,8 @@ impl HdrPipeline {
             .for_each(|(o, l)| curve.apply(l, o));
     }
 
-    /// Size, metadata and (zeroed) samples of the companded image of `linear`.
+    /// Size and metadata of the companded image of `linear` (its samples sized, for the caller to
+    /// write).
     fn compand_header(&self, linear: &RawImage, out: &mut RawImage) {
         out.width = linear.width;
         out.height = linear.height;
@@ -449,7 +451,7 @@ impl HdrPipeline {
         out.analog_gain = linear.analog_gain;
         out.row_time_s = linear.row_time_s;
         out.exposure_index = linear.exposure_index;
-        out.data.clear();
+        // Every sample is written by the caller.
         out.data.resize(linear.data.len(), 0);
     }
 

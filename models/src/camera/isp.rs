@@ -921,21 +921,41 @@ impl Isp {
         let lut = &self.srgb_lut;
         let top = (SRGB_LUT_SIZE - 1) as f64;
         let [pr, pg, pb] = &self.rgb.planes;
-        out.data
-            .par_chunks_mut(3 * w)
-            .enumerate()
-            .for_each(|(y, row)| {
+        out.data.par_chunks_mut(3 * w).enumerate().for_each_init(
+            Vec::<u32>::new,
+            |codes, (y, row)| {
                 let (wp, scale, top) = (wp as f32, scale as f32, top as f32);
                 let range = y * w..(y + 1) * w;
                 let planes = [&pr[range.clone()], &pg[range.clone()], &pb[range]];
+                codes.resize(w, 0);
                 for (c, plane) in planes.into_iter().enumerate() {
-                    for (x, &v) in plane.iter().enumerate() {
-                        let v = tone_curve_f32(mode, wp, scale * v);
-                        // v ∈ [0, 1]: round half up by truncation.
-                        row[3 * x + c] = lut[(v * top + 0.5) as usize];
+                    // The curve over the row (one mode per loop: vectorises), then the table.
+                    fn curve(
+                        f: impl Fn(f32) -> f32,
+                        plane: &[f32],
+                        scale: f32,
+                        top: f32,
+                        codes: &mut [u32],
+                    ) {
+                        for (k, &v) in codes.iter_mut().zip(plane) {
+                            // f(·) ∈ [0, 1]: round half up by truncation.
+                            *k = (f(scale * v) * top + 0.5) as u32;
+                        }
+                    }
+                    let tone = |m: ToneMap| move |x: f32| tone_curve_f32(m, wp, x);
+                    match mode {
+                        ToneMap::Clip => curve(tone(ToneMap::Clip), plane, scale, top, codes),
+                        ToneMap::Reinhard => {
+                            curve(tone(ToneMap::Reinhard), plane, scale, top, codes)
+                        }
+                        ToneMap::Filmic => curve(tone(ToneMap::Filmic), plane, scale, top, codes),
+                    }
+                    for (x, &k) in codes.iter().enumerate() {
+                        row[3 * x + c] = lut[k as usize];
                     }
                 }
-            });
+            },
+        );
     }
 
     pub fn reset(&mut self) {

@@ -684,7 +684,7 @@ impl PixelModel {
         let cfg = &self.config;
         out.width = w;
         out.height = h;
-        out.data.clear();
+        // Every sample is written below: no need to clear the previous frame's.
         out.data.resize(w * h, 0);
         out.bit_depth = cfg.adc_bits;
         out.black_level_dn = cfg.black_level_dn;
