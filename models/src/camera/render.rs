@@ -553,6 +553,8 @@ struct Scratch {
     flags: Vec<bool>,
     blur_idx: Vec<u32>,
     best: Vec<u32>,
+    /// Instance of each item's frame-time hit (`u32::MAX`: none, or the static world).
+    hit_instance: Vec<u32>,
     hits3: Vec<Option<Hit>>,
     touched: Vec<bool>,
     dist: Vec<f64>,
@@ -1648,6 +1650,13 @@ impl Ctx<'_> {
         if s.cones.is_empty() {
             return;
         }
+        // The instance of each frame-time hit (`u32::MAX`: none or the static world), compact.
+        s.hit_instance.clear();
+        s.hit_instance.extend(
+            s.hits[..n]
+                .iter()
+                .map(|h| h.and_then(|h| h.instance).unwrap_or(u32::MAX)),
+        );
         let mut start = 0;
         while start < n {
             let end = (start + GROUP).min(n);
@@ -1677,20 +1686,27 @@ impl Ctx<'_> {
                 // Mover-major: a mover's rays are consecutive (packets in the re-trace).
                 for &k in &s.cand {
                     let mv = &self.movers[k as usize];
+                    // Shifted origin relative to the mover, per run of rays with the same
+                    // origin and time (a row of the rolling shutter).
+                    let mut key = (f64::NAN, DVec3::NAN);
+                    let (mut shift, mut oc, mut cq) = (DVec3::ZERO, DVec3::ZERO, 0.0);
                     for i in start..end {
                         let ray = s.rays[i];
-                        let shift = mv.velocity * items[i].dt;
+                        let dt = items[i].dt;
+                        if dt != key.0 || ray.origin != key.1 {
+                            key = (dt, ray.origin);
+                            shift = mv.velocity * dt;
+                            oc = ray.origin - shift - mv.centre;
+                            cq = oc.length_squared() - mv.radius * mv.radius;
+                        }
                         if shift.length_squared() < 1e-6 {
                             continue;
                         }
                         // Ray from the shifted origin against the frame-time box (always when
                         // the frame-time hit is on this object: it may have moved off the ray).
-                        let on_it = s.hits[i].is_some_and(|h| h.instance == Some(mv.instance));
-                        if !on_it {
+                        if s.hit_instance[i] != mv.instance {
                             // Bounding sphere first (cheap), then the box.
-                            let oc = ray.origin - shift - mv.centre;
                             let bq = oc.dot(ray.direction);
-                            let cq = oc.length_squared() - mv.radius * mv.radius;
                             if cq > 0.0 && (bq > 0.0 || bq * bq - cq < 0.0) {
                                 continue;
                             }
