@@ -16,6 +16,9 @@
 //!    approximation above 20 e⁻;
 //! 4. `n ← min(n, full well)` (`camera.saturation`);
 //! 5. `+ o_i` the DSNU offset map [e⁻] (`camera.dsnu`), `+ σ_r · N(0,1)` (`camera.read_noise`);
+//!    where steps 3–5 are two independent normals (μ ≥ 20 e⁻, the full well beyond `μ + 8√μ`) and no
+//!    other capture reads the same charge ([`ExposureSpec::shared_charge`]), they are drawn as one:
+//!    `n = μ + √(μ + σ_r²)·z + o_i` (the sum of independent normals; same distribution, one draw);
 //! 6. `y = round(K·g·n + black level)`, clipped to `[0, 2^bits − 1]` (the top clip is part of
 //!    `camera.saturation`); rounding adds the quantisation noise σ_q² = 1/12 DN².
 //!
@@ -382,6 +385,11 @@ pub struct ExposureSpec {
     pub start_offset_s: f64,
     /// Index in the sequence (0 = the most sensitive).
     pub index: u32,
+    /// Another capture reads the same charge (the split pixel's high- and low-gain reads of the
+    /// large photodiode): the shot noise must come from the stream they share, apart from the read
+    /// noise. Otherwise, above [`POISSON_EXACT_BELOW`] and away from the full well, the two
+    /// independent normals are drawn as one (`μ + √(μ + σ_r²)·z`, the same distribution).
+    pub shared_charge: bool,
 }
 
 /// SplitMix64 finaliser (Steele, Lea, Flood, OOPSLA 2014): decorrelates per-row seeds.
@@ -566,6 +574,7 @@ impl PixelModel {
             read_noise_e: self.config.read_noise_e,
             start_offset_s: 0.0,
             index: 0,
+            shared_charge: false,
         }
     }
 
@@ -573,7 +582,10 @@ impl PixelModel {
     /// large PD at high conversion gain, large PD at low conversion gain, small PD.
     pub fn split_pixel_captures(&self, time_s: f64) -> [ExposureSpec; 3] {
         let c = &self.config;
-        let hcg = self.base_exposure(time_s);
+        let hcg = ExposureSpec {
+            shared_charge: true,
+            ..self.base_exposure(time_s)
+        };
         let lcg = ExposureSpec {
             conversion_gain_dn_per_e: c.lcg_conversion_gain_dn_per_e,
             read_noise_e: c.lcg_read_noise_e,
@@ -581,6 +593,7 @@ impl PixelModel {
             ..hcg
         };
         let spd = ExposureSpec {
+            shared_charge: false,
             relative_sensitivity: c.small_pd_relative_sensitivity,
             conversion_gain_dn_per_e: c.small_pd_conversion_gain_dn_per_e,
             full_well_e: c.small_pd_full_well_e,
@@ -811,27 +824,49 @@ impl PixelModel {
                 if mu_dark != 0.0 {
                     e.iter_mut().for_each(|e| *e += mu_dark);
                 }
-                // 4. Shot noise, full well.
-                if shot {
-                    let mut rng = row_rng(shot_seed, 0x5407, y);
-                    for e in e.iter_mut() {
-                        *e = poisson(&mut rng, *e);
+                let dsnu = self.dsnu_e.get(base..base + w);
+                if shot && read_sigma > 0.0 && !exposure.shared_charge {
+                    // 4.–5. Shot and read noise in one pass: one normal of variance μ + σ_r² where
+                    // the shot noise is normal and the full well out of reach (μ + 8√μ below it),
+                    // else as below.
+                    let mut shot_rng = row_rng(shot_seed, 0x5407, y);
+                    let mut read_rng = row_rng(noise_seed, 0x4EAD, y);
+                    let var_r = read_sigma * read_sigma;
+                    for (x, e) in e.iter_mut().enumerate() {
+                        let mean = *e;
+                        let offset = dsnu.map_or(0.0, |d| f64::from(d[x]));
+                        *e = if mean >= POISSON_EXACT_BELOW && mean + 8.0 * mean.sqrt() < full_well
+                        {
+                            let z: f64 = shot_rng.sample(StandardNormal);
+                            mean + (mean + var_r).sqrt() * z + offset
+                        } else {
+                            let z: f64 = read_rng.sample(StandardNormal);
+                            poisson(&mut shot_rng, mean).min(full_well) + offset + read_sigma * z
+                        };
                     }
-                }
-                if full_well < f64::INFINITY {
-                    e.iter_mut().for_each(|e| *e = e.min(full_well));
-                }
-                // 5. DSNU offset, read noise.
-                if let Some(dsnu) = self.dsnu_e.get(base..base + w) {
-                    for (e, &o) in e.iter_mut().zip(dsnu) {
-                        *e += f64::from(o);
+                } else {
+                    // 4. Shot noise, full well.
+                    if shot {
+                        let mut rng = row_rng(shot_seed, 0x5407, y);
+                        for e in e.iter_mut() {
+                            *e = poisson(&mut rng, *e);
+                        }
                     }
-                }
-                if read_sigma > 0.0 {
-                    let mut rng = row_rng(noise_seed, 0x4EAD, y);
-                    for e in e.iter_mut() {
-                        let z: f64 = rng.sample(StandardNormal);
-                        *e += read_sigma * z;
+                    if full_well < f64::INFINITY {
+                        e.iter_mut().for_each(|e| *e = e.min(full_well));
+                    }
+                    // 5. DSNU offset, read noise.
+                    if let Some(dsnu) = dsnu {
+                        for (e, &o) in e.iter_mut().zip(dsnu) {
+                            *e += f64::from(o);
+                        }
+                    }
+                    if read_sigma > 0.0 {
+                        let mut rng = row_rng(noise_seed, 0x4EAD, y);
+                        for e in e.iter_mut() {
+                            let z: f64 = rng.sample(StandardNormal);
+                            *e += read_sigma * z;
+                        }
                     }
                 }
                 // 6. ADC: round half up of the value clamped to [0, top] (`as` truncates;

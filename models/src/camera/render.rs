@@ -86,7 +86,7 @@ use super::{
     SpectralBands, SpectralResponse,
 };
 use crate::effects::{EffectInfo, Effects};
-use crate::environment::material::{Band, Material, MaterialDb};
+use crate::environment::material::{Band, MaterialDb};
 use crate::environment::scene::StaticElement;
 use crate::environment::sky::{ClearSkyInput, spectrl2};
 use crate::environment::sun::SUN_RADIUS_DEG;
@@ -349,9 +349,6 @@ pub struct Renderer {
     flicker: bool,
     lamp_lib: LampLibrary,
     lamp_plan: LampPlan,
-    /// Per material: (specular-only copy, unit-diffuse copy) for materials with a visible lobe.
-    lobes: Vec<Option<(Material, Material)>>,
-    lobes_key: usize,
     /// Object id per pixel (before compaction into `aux.object_ids`).
     pixel_ids: Vec<u64>,
     id_map: HashMap<u64, u32>,
@@ -426,7 +423,8 @@ struct Ctx<'a> {
     cos_sun_radius: f64,
     /// Per material: transmissive (τ > 0 at normal incidence).
     transmissive: Vec<bool>,
-    lobes: &'a [Option<(Material, Material)>],
+    /// Per material: has a visible specular lobe.
+    specular: Vec<bool>,
     lamps: &'a LampPlan,
     lamp_lib: &'a LampLibrary,
     min_lux: f64,
@@ -596,8 +594,6 @@ impl Renderer {
             flicker: effects.is_on(&LED_FLICKER),
             lamp_lib: LampLibrary::new(&config.lamps),
             lamp_plan: LampPlan::default(),
-            lobes: Vec::new(),
-            lobes_key: usize::MAX,
             pixel_ids: Vec::new(),
             id_map: HashMap::new(),
         })
@@ -630,23 +626,6 @@ impl Renderer {
         let t_start = std::time::Instant::now();
         let frame = input.frame;
         let mats = &frame.scene.materials;
-        if self.lobes_key != mats.len() {
-            self.lobes = (0..mats.len())
-                .map(|i| {
-                    let m = mats.get(crate::environment::material::MaterialId(i as u32));
-                    m.visible.specular.as_ref()?;
-                    let mut spec = m.clone();
-                    spec.visible.reflectance = [0.0; crate::environment::material::VISIBLE_SAMPLES];
-                    let mut unit = m.clone();
-                    unit.visible.reflectance = [1.0; crate::environment::material::VISIBLE_SAMPLES];
-                    unit.visible.retro = None;
-                    spec.visible.retro = None;
-                    Some((spec, unit))
-                })
-                .collect();
-            self.lobes_key = mats.len();
-        }
-
         // Sun and sky (SPCTRAL2).
         let sun_dir =
             crate::lidar::sun_direction(input.ground_truth.environmental_conditions.as_ref())
@@ -744,6 +723,12 @@ impl Renderer {
                     > 0.0
             })
             .collect();
+        let specular: Vec<bool> = (0..nm)
+            .map(|i| {
+                mats.get(crate::environment::material::MaterialId(i as u32))
+                    .has_specular(Band::Visible(550.0))
+            })
+            .collect();
         let part_role: Vec<Vec<u8>> = frame
             .scene
             .meshes
@@ -824,7 +809,7 @@ impl Renderer {
             sun_up,
             cos_sun_radius: SUN_RADIUS_DEG.to_radians().cos(),
             transmissive,
-            lobes: &self.lobes,
+            specular,
             lamps: &self.lamp_plan,
             lamp_lib: &self.lamp_lib,
             min_lux: self.config.lamps.min_illuminance_lux,
@@ -1152,7 +1137,6 @@ impl Ctx<'_> {
         (k != u32::MAX).then_some(k)
     }
 
-    /// Compute one sample per item.
     /// [`Self::radiance`] in batches of at most [`RADIANCE_BATCH`] items, so that the per-ray
     /// scratch (rays, hit records, lane accumulators) stays in the core's L2 cache.
     fn radiance_batched(&self, items: &[Item], s: &mut Scratch, out: &mut Vec<Sample>) {
@@ -1165,6 +1149,7 @@ impl Ctx<'_> {
         s.part = part;
     }
 
+    /// Compute one sample per item.
     fn radiance(&self, items: &[Item], s: &mut Scratch, out: &mut Vec<Sample>) {
         let n = items.len();
         let nl = self.nl;
@@ -1408,17 +1393,14 @@ impl Ctx<'_> {
         let m = hit.material.0 as usize;
         let n = hit.facing_normal();
         let p = hit.point + n * eps_at(hit.point);
-        let lobes = self.lobes.get(m).and_then(|l| l.as_ref());
-        // Diffuse coupling a·π and specular f_s for a light direction wi.
+        let mat = self.mats.get(hit.material);
+        let lobe = self.specular[m];
+        // Diffuse coupling a (the table rows carry ρ/π) and specular f_s for a light direction wi.
         let brdf = |wi: DVec3| -> (f64, f64) {
-            match lobes {
-                Some((spec, unit)) => {
-                    let b = Band::Visible(550.0);
-                    let fs = spec.eval_brdf(b, wi, wo, n);
-                    let f1 = unit.eval_brdf(b, wi, wo, n);
-                    ((f1 - fs) * PI, fs)
-                }
-                None => (1.0, 0.0),
+            if lobe {
+                mat.brdf_parts(Band::Visible(550.0), wi, wo, n)
+            } else {
+                (1.0, 0.0)
             }
         };
         if ambient {
@@ -1436,10 +1418,10 @@ impl Ctx<'_> {
                 }
             }
             // Specular reflection of the sky (mirror direction above the horizon).
-            if let Some((spec, _)) = lobes {
+            if lobe {
                 let mirror = 2.0 * n.dot(wo) * n - wo;
                 if mirror.z > 0.0 && !beta {
-                    let r = spec
+                    let r = mat
                         .specular_reflectance(Band::Visible(550.0), n.dot(wo).clamp(0.0, 1.0))
                         as f32
                         * weight;

@@ -1252,6 +1252,40 @@ impl Material {
         f
     }
 
+    /// The parts of [`Material::eval_brdf`] in `band` that do not depend on the diffuse reflectance
+    /// (the retro lobe left out): `(c, f_s)` with `f = ρ_d/π · c + f_s`, where `c = c(θi)·c(θo)` is
+    /// what the specular lobe leaves to the diffuse part (1 without a lobe) and `f_s` the specular
+    /// lobe's BRDF, sr⁻¹. `(0, 0)` when either direction is below the surface. A renderer that folds
+    /// `ρ_d` into its light tables evaluates the lobe once per light direction with this.
+    pub fn brdf_parts(&self, band: Band, wi: DVec3, wo: DVec3, n: DVec3) -> (f64, f64) {
+        let cos_i = n.dot(wi);
+        let cos_o = n.dot(wo);
+        if cos_i <= 0.0 || cos_o <= 0.0 {
+            return (0.0, 0.0);
+        }
+        let lobe = match band {
+            Band::Visible(_) => self.visible.specular.as_ref(),
+            Band::Nir905 => self.nir905.specular.as_ref(),
+            Band::Nir1550 => self.nir1550.specular.as_ref(),
+        };
+        match lobe {
+            Some(s) => (
+                s.coupling(cos_i) * s.coupling(cos_o),
+                s.eval(wi, wo, n, cos_i, cos_o),
+            ),
+            None => (1.0, 0.0),
+        }
+    }
+
+    /// Whether the material has a specular lobe in `band`.
+    pub fn has_specular(&self, band: Band) -> bool {
+        match band {
+            Band::Visible(_) => self.visible.specular.is_some(),
+            Band::Nir905 => self.nir905.specular.is_some(),
+            Band::Nir1550 => self.nir1550.specular.is_some(),
+        }
+    }
+
     /// Directional-hemispherical reflectance `∫ f(wi, wo) cos θo dωo` at incidence `wi` (every lobe on):
     /// the diffuse part analytically, the specular and retro lobes numerically. ≤ 1 for a valid material.
     pub fn directional_hemispherical_reflectance(&self, band: Band, wi: DVec3, n: DVec3) -> f64 {
@@ -2547,6 +2581,38 @@ mod tests {
             Polarisation::Te => (s - root) / (s + root),
             Polarisation::Tm => (eps * s - root) / (eps * s + root),
         }
+    }
+
+    /// `brdf_parts` recombines to `eval_brdf` (retro lobe aside) for every built-in material.
+    #[test]
+    fn brdf_parts_recombine_to_the_brdf() {
+        let db = MaterialDb::builtin();
+        let n = DVec3::Z;
+        let mut with_lobe = 0;
+        for (_, m) in db.iter() {
+            if m.visible.retro.is_some() {
+                continue;
+            }
+            with_lobe += usize::from(m.has_specular(Band::Visible(550.0)));
+            for (ti, pi, to, po) in [
+                (0.0, 0.0, 0.0, 0.0),
+                (30.0, 0.0, 30.0, 180.0),
+                (60.0, 10.0, 20.0, 200.0),
+                (85.0, 0.0, 40.0, 90.0),
+            ] {
+                let (wi, wo) = (dir(ti, pi), dir(to, po));
+                let b = Band::Visible(550.0);
+                let (c, fs) = m.brdf_parts(b, wi, wo, n);
+                let f = m.diffuse_albedo(b) * FRAC_1_PI * c + fs;
+                let e = m.eval_brdf(b, wi, wo, n);
+                assert!((f - e).abs() <= 1e-12 * (1.0 + e), "{}: {f} vs {e}", m.name);
+            }
+            assert_eq!(
+                m.brdf_parts(Band::Visible(550.0), -DVec3::Z, DVec3::Z, n),
+                (0.0, 0.0)
+            );
+        }
+        assert!(with_lobe > 0);
     }
 
     #[test]
