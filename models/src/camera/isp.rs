@@ -540,95 +540,108 @@ pub fn demosaic(
             .map(|&(dx, dy, wt)| (dy as isize * width as isize + dx as isize, wt))
             .collect()
     };
-    let (g_at_rb, horizontal, vertical, diagonal) = (
+    // Kernel ids: 0 green at red/blue, 1 horizontal, 2 vertical, 3 diagonal.
+    let kernels = [
         flat(k.g_at_rb),
         flat(k.horizontal),
         flat(k.vertical),
         flat(k.diagonal),
-    );
+    ];
     let [pr, pg, pb] = &mut out.planes;
     pr.par_chunks_mut(width)
         .zip(pg.par_chunks_mut(width))
         .zip(pb.par_chunks_mut(width))
         .enumerate()
-        .for_each(|(y, ((rr, rg), rb))| {
-            let row_inside = y >= 2 && y + 2 < height;
-            if row_inside && width > 4 {
-                // Per column parity: own channel and the two interpolated (channel, kernel).
-                let plan = [0usize, 1].map(|px| {
-                    let c0 = cfa.channel(px, y);
-                    if c0 == GREEN {
-                        let (hc, vc) = if cfa.channel(px + 1, y) == RED {
-                            (RED, BLUE)
+        .for_each_init(
+            || [(); 4].map(|_| Vec::<f32>::new()),
+            |conv, (y, ((rr, rg), rb))| {
+                let row_inside = y >= 2 && y + 2 < height;
+                if row_inside && width > 4 {
+                    // Per column parity: own channel and the two interpolated (channel, kernel id).
+                    let plan = [0usize, 1].map(|px| {
+                        let c0 = cfa.channel(px, y);
+                        if c0 == GREEN {
+                            let (hc, vc) = if cfa.channel(px + 1, y) == RED {
+                                (RED, BLUE)
+                            } else {
+                                (BLUE, RED)
+                            };
+                            (c0, (hc, 1), (vc, 2))
                         } else {
-                            (BLUE, RED)
-                        };
-                        (c0, (hc, &horizontal), (vc, &vertical))
-                    } else {
-                        let other = if c0 == RED { BLUE } else { RED };
-                        (c0, (GREEN, &g_at_rb), (other, &diagonal))
+                            let other = if c0 == RED { BLUE } else { RED };
+                            (c0, (GREEN, 0), (other, 3))
+                        }
+                    });
+                    // Each kernel over the whole interior span, tap by tap (vectorises; every pixel
+                    // sums its taps in order). Twice the arithmetic of the kernels a pixel needs,
+                    // at several times the speed.
+                    let base = y * width;
+                    let span = width - 4;
+                    for (c, taps) in conv.iter_mut().zip(&kernels) {
+                        c.clear();
+                        c.resize(span, 0.0);
+                        for &(o, wt) in taps {
+                            let start = ((base + 2) as isize + o) as usize;
+                            for (a, &m) in c.iter_mut().zip(&mosaic[start..start + span]) {
+                                *a += wt * m;
+                            }
+                        }
                     }
-                });
-                let conv = |centre: usize, taps: &[(isize, f32)]| -> f32 {
-                    taps.iter()
-                        .map(|&(o, wt)| wt * mosaic[(centre as isize + o) as usize])
-                        .sum()
+                    for x in 2..width - 2 {
+                        let (c0, (ca, ka), (cb, kb)) = plan[x & 1];
+                        let mut v = [0.0f32; CHANNELS];
+                        v[c0] = mosaic[base + x];
+                        v[ca] = conv[ka][x - 2];
+                        v[cb] = conv[kb][x - 2];
+                        rr[x] = v[RED];
+                        rg[x] = v[GREEN];
+                        rb[x] = v[BLUE];
+                    }
+                }
+                let tap = |x: usize, taps: &[Tap]| -> f32 {
+                    let mut s = 0.0f32;
+                    if row_inside && x >= 2 && x + 2 < width {
+                        // Interior: no mirroring needed.
+                        let centre = (y * width + x) as isize;
+                        for &(dx, dy, wt) in taps {
+                            let i = centre + dy as isize * width as isize + dx as isize;
+                            s += wt * mosaic[i as usize];
+                        }
+                    } else {
+                        for &(dx, dy, wt) in taps {
+                            let xx = mirror(x as isize + dx as isize, width);
+                            let yy = mirror(y as isize + dy as isize, height);
+                            s += wt * mosaic[yy * width + xx];
+                        }
+                    }
+                    s
                 };
-                for x in 2..width - 2 {
-                    let (c0, (ca, ka), (cb, kb)) = plan[x & 1];
-                    let centre = y * width + x;
+                let border: &mut dyn Iterator<Item = usize> = if row_inside && width > 4 {
+                    &mut [0, 1, width - 2, width - 1].into_iter()
+                } else {
+                    &mut (0..width)
+                };
+                for x in border {
+                    let c0 = cfa.channel(x, y);
+                    let own = mosaic[y * width + x];
                     let mut v = [0.0f32; CHANNELS];
-                    v[c0] = mosaic[centre];
-                    v[ca] = conv(centre, ka);
-                    v[cb] = conv(centre, kb);
+                    v[c0] = own;
+                    if c0 == GREEN {
+                        let h = cfa.channel(mirror(x as isize + 1, width), y);
+                        let (hc, vc) = if h == RED { (RED, BLUE) } else { (BLUE, RED) };
+                        v[hc] = tap(x, k.horizontal);
+                        v[vc] = tap(x, k.vertical);
+                    } else {
+                        v[GREEN] = tap(x, k.g_at_rb);
+                        let other = if c0 == RED { BLUE } else { RED };
+                        v[other] = tap(x, k.diagonal);
+                    }
                     rr[x] = v[RED];
                     rg[x] = v[GREEN];
                     rb[x] = v[BLUE];
                 }
-            }
-            let tap = |x: usize, taps: &[Tap]| -> f32 {
-                let mut s = 0.0f32;
-                if row_inside && x >= 2 && x + 2 < width {
-                    // Interior: no mirroring needed.
-                    let centre = (y * width + x) as isize;
-                    for &(dx, dy, wt) in taps {
-                        let i = centre + dy as isize * width as isize + dx as isize;
-                        s += wt * mosaic[i as usize];
-                    }
-                } else {
-                    for &(dx, dy, wt) in taps {
-                        let xx = mirror(x as isize + dx as isize, width);
-                        let yy = mirror(y as isize + dy as isize, height);
-                        s += wt * mosaic[yy * width + xx];
-                    }
-                }
-                s
-            };
-            let border: &mut dyn Iterator<Item = usize> = if row_inside && width > 4 {
-                &mut [0, 1, width - 2, width - 1].into_iter()
-            } else {
-                &mut (0..width)
-            };
-            for x in border {
-                let c0 = cfa.channel(x, y);
-                let own = mosaic[y * width + x];
-                let mut v = [0.0f32; CHANNELS];
-                v[c0] = own;
-                if c0 == GREEN {
-                    let h = cfa.channel(mirror(x as isize + 1, width), y);
-                    let (hc, vc) = if h == RED { (RED, BLUE) } else { (BLUE, RED) };
-                    v[hc] = tap(x, k.horizontal);
-                    v[vc] = tap(x, k.vertical);
-                } else {
-                    v[GREEN] = tap(x, k.g_at_rb);
-                    let other = if c0 == RED { BLUE } else { RED };
-                    v[other] = tap(x, k.diagonal);
-                }
-                rr[x] = v[RED];
-                rg[x] = v[GREEN];
-                rb[x] = v[BLUE];
-            }
-        });
+            },
+        );
 }
 
 /// Hable's filmic curve without normalisation.
