@@ -893,8 +893,8 @@ impl Isp {
                 .zip(luminance.par_chunks_mut(w))
                 .zip(self.row_log.par_iter_mut())
                 .for_each(|((((rr, rg), rb), ly), lg)| {
-                    // Σ ln(1 + y) as ln of products of eight factors (each 1 + y < 2^40, so a
-                    // product stays far inside f64's range): one logarithm per eight pixels.
+                    // Σ ln(1 + y) as ln of products of 24 factors (each 1 + y ≤ 1 + 10¹², so a
+                    // product stays below 10²⁸⁹, inside f64's range): one logarithm per 24 pixels.
                     let mut acc = 0.0f64;
                     let mut prod = 1.0f64;
                     for x in 0..w {
@@ -912,7 +912,7 @@ impl Isp {
                         let y = (luma[0] * s[0] + luma[1] * s[1] + luma[2] * s[2]).max(0.0);
                         ly[x] = y;
                         prod *= 1.0 + f64::from(y.min(1e12));
-                        if x % 8 == 7 {
+                        if x % 24 == 23 {
                             acc += prod.ln();
                             prod = 1.0;
                         }
