@@ -1594,6 +1594,8 @@ impl Ctx<'_> {
     /// Re-trace rays that meet a moving instance at the item's time (origin shifted by −v·Δt).
     fn displace_movers(&self, items: &[Item], s: &mut Scratch) {
         const GROUP: usize = 64;
+        // One bit per ray of a group in the sphere masks below.
+        const _: () = assert!(GROUP <= 64);
         let n = items.len();
         s.srays.clear();
         s.idx.clear();
@@ -1664,7 +1666,56 @@ impl Ctx<'_> {
                     s.cand.push(k);
                 }
             }
-            if !s.cand.is_empty() {
+            // A group of one origin and one time (a row's primary rays): its directions as
+            // arrays, each candidate's sphere test over them at once (vectorises).
+            let uniform = !s.cand.is_empty()
+                && (start + 1..end).all(|i| {
+                    items[i].dt == items[start].dt && s.rays[i].origin == s.rays[start].origin
+                });
+            if uniform {
+                let len = end - start;
+                let mut dir = [[0.0f64; GROUP]; 3];
+                for (j, r) in s.rays[start..end].iter().enumerate() {
+                    dir[0][j] = r.direction.x;
+                    dir[1][j] = r.direction.y;
+                    dir[2][j] = r.direction.z;
+                }
+                let (dt, origin) = (items[start].dt, s.rays[start].origin);
+                for &k in &s.cand {
+                    let mv = &self.movers[k as usize];
+                    let shift = mv.velocity * dt;
+                    if shift.length_squared() < 1e-6 {
+                        continue;
+                    }
+                    let oc = origin - shift - mv.centre;
+                    let cq = oc.length_squared() - mv.radius * mv.radius;
+                    // Bit j: ray j meets the bounding sphere (as the per-ray test below), or its
+                    // frame-time hit is this mover (always re-traced).
+                    let mut take = 0u64;
+                    for j in 0..len {
+                        let bq = oc.x * dir[0][j] + oc.y * dir[1][j] + oc.z * dir[2][j];
+                        let miss = (cq > 0.0) & ((bq > 0.0) | (bq * bq - cq < 0.0));
+                        let on_it = s.hit_instance[start + j] == mv.instance;
+                        take |= u64::from(!miss | on_it) << j;
+                    }
+                    while take != 0 {
+                        let j = take.trailing_zeros() as usize;
+                        take &= take - 1;
+                        let i = start + j;
+                        let ray = s.rays[i];
+                        if s.hit_instance[i] != mv.instance
+                            && !mv.ray_meets_box(ray.origin - shift, ray.direction, ray.t_max)
+                        {
+                            continue;
+                        }
+                        let mut r2 = ray;
+                        r2.origin = ray.origin - shift;
+                        s.srays.push(r2);
+                        s.pairs.push((i as u32, k));
+                        s.idx.push(mv.instance);
+                    }
+                }
+            } else if !s.cand.is_empty() {
                 // Mover-major: a mover's rays are consecutive (packets in the re-trace).
                 for &k in &s.cand {
                     let mv = &self.movers[k as usize];
