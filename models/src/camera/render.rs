@@ -62,8 +62,8 @@
 //!
 //! # Parallelism
 //!
-//! Rows are rendered in blocks on the rayon pool; consecutive pixels of a row form the 4-ray
-//! packets of [`crate::space::Space::trace_batch`], and their sun shadow rays (parallel, from nearby
+//! Rows are rendered in blocks on the rayon pool; consecutive pixels of a row form the 8-ray (AVX2)
+//! or 4-ray packets of [`crate::space::Space::trace_batch`], and their sun shadow rays (parallel, from nearby
 //! points) the packets of [`crate::space::Space::occluded_batch`]. Scratch buffers are per task (no per-pixel
 //! allocation). The only randomness (bounce directions, time jitter) is a hash of seed, cycle and
 //! pixel, so the image does not depend on thread scheduling.
@@ -574,7 +574,7 @@ fn unit_f64(h: u64) -> f64 {
     (h >> 11) as f64 / (1u64 << 53) as f64
 }
 
-/// Items per call of [`Ctx::radiance`] (a multiple of the 4-ray packet width).
+/// Items per call of [`Ctx::radiance`] (a multiple of the 8-ray packet width).
 const RADIANCE_BATCH: usize = 1024;
 
 /// Offset of secondary-ray origins from a surface, m.
@@ -919,7 +919,7 @@ impl Renderer {
                         }
                     }
                     // Sample-major order with one jitter per row: consecutive items are
-                    // neighbouring pixels at the same time (coherent 4-ray packets).
+                    // neighbouring pixels at the same time (coherent ray packets).
                     s.blur_idx.clear();
                     s.blur_idx
                         .extend((0..count as u32).filter(|&i| s.flags[i as usize]));

@@ -24,8 +24,8 @@ use crate::frames::Pose;
 /// Which obvhs BVH layout the bottom level uses (the top level is always a BVH2: it is small).
 ///
 /// `osiris bench space` (≈1 M triangles, 500 instances, 2-core EPYC VM): BVH2 traces the coherent
-/// LiDAR pattern ≈2.5× faster (it has the 4-ray packet path, CWBVH traces single rays), CWBVH traces
-/// incoherent random rays ≈1.5× faster (as in `physics.md` §5.3). Choose BVH2 for LiDAR and camera
+/// LiDAR pattern ≈3× faster (it has the 8- and 4-ray packet paths, CWBVH traces single rays), CWBVH
+/// traces incoherent random rays ≈1.4× faster (as in `physics.md` §5.3). Choose BVH2 for LiDAR and camera
 /// primary rays, CWBVH for incoherent work (multi-bounce radar) if that dominates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum BvhKind {

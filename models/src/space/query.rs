@@ -373,8 +373,8 @@ impl Space {
     }
 
     /// [`Space::closest_hit_on_instance`] for a run of rays, ray `j` against instance
-    /// `instances[j]` (`out[j]`); four consecutive coherent rays against the same instance are
-    /// traced as one packet ([`Space::trace_batch`] explains coherence). Runs on the calling thread.
+    /// `instances[j]` (`out[j]`); eight (AVX2) or four consecutive coherent rays against the same
+    /// instance are traced as one packet ([`Space::trace_batch`] explains coherence). Runs on the calling thread.
     /// Panics if the lengths differ.
     pub fn closest_hits_on_instances(
         &self,
@@ -615,9 +615,9 @@ impl Space {
     }
 
     /// [`Space::closest_hit`] for every ray, in parallel on the current rayon pool (`out[i]` for
-    /// `rays[i]`, chunks of 512 rays per task). Runs of four consecutive rays with a common origin and
-    /// directions within ≈ 8° (LiDAR columns, camera tiles) are traced as SIMD packets: issue coherent
-    /// rays next to each other. Panics if the lengths differ.
+    /// `rays[i]`, chunks of 512 rays per task). Runs of eight (where the CPU has AVX2) or four
+    /// consecutive rays with a common origin and directions within ≈ 8° (LiDAR columns, camera rows)
+    /// are traced as SIMD packets: issue coherent rays next to each other. Panics if the lengths differ.
     pub fn trace_batch(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
         assert_eq!(
             rays.len(),
