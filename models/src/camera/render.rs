@@ -540,8 +540,6 @@ struct Scratch {
     items: Vec<Item>,
     samples: Vec<Sample>,
     blur: Vec<Sample>,
-    /// One batch of [`Ctx::radiance_batched`].
-    part: Vec<Sample>,
     flicker: Vec<FlickerSample>,
     pairs: Vec<(u32, u32)>,
     /// Per mover: (index, cone of its swept bounding sphere: axis, cos α, sin α).
@@ -1141,20 +1139,19 @@ impl Ctx<'_> {
     /// scratch (rays, hit records, lane accumulators) stays in the core's L2 cache.
     fn radiance_batched(&self, items: &[Item], s: &mut Scratch, out: &mut Vec<Sample>) {
         out.clear();
-        let mut part = std::mem::take(&mut s.part);
-        for batch in items.chunks(RADIANCE_BATCH) {
-            self.radiance(batch, s, &mut part);
-            out.extend_from_slice(&part);
+        out.resize(items.len(), Sample::default());
+        for (batch, samples) in items
+            .chunks(RADIANCE_BATCH)
+            .zip(out.chunks_mut(RADIANCE_BATCH))
+        {
+            self.radiance(batch, s, samples);
         }
-        s.part = part;
     }
 
-    /// Compute one sample per item.
-    fn radiance(&self, items: &[Item], s: &mut Scratch, out: &mut Vec<Sample>) {
+    /// Compute one sample per item (`out`: one default sample per item).
+    fn radiance(&self, items: &[Item], s: &mut Scratch, out: &mut [Sample]) {
         let n = items.len();
         let nl = self.nl;
-        out.clear();
-        out.resize(n, Sample::default());
         // Primary rays.
         s.rays.clear();
         let mut pose_cache: (f64, Pose) = (f64::NAN, self.frame.sensor_pose);
