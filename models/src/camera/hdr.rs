@@ -296,30 +296,28 @@ impl HdrPipeline {
         linear: &mut RawImage,
         companded: &mut RawImage,
     ) {
-        self.merge_into(captures, linear, Some(companded));
+        if !self.merge_into(captures, linear, Some(companded)) {
+            self.compand(linear, companded);
+        }
     }
 
+    /// [`Self::merge`]; with `companded`, its rows companded in the same pass where companding is
+    /// on and the captures merge. Returns whether `companded` was written.
     fn merge_into(
         &self,
         captures: &[RawImage],
         out: &mut RawImage,
         companded: Option<&mut RawImage>,
-    ) {
+    ) -> bool {
         let Some(first) = captures.first() else {
             out.data.clear();
             out.width = 0;
             out.height = 0;
-            if let Some(c) = companded {
-                self.compand(out, c);
-            }
-            return;
+            return false;
         };
         if self.config.mode == HdrMode::Single || captures.len() == 1 {
             out.clone_from(first);
-            if let Some(c) = companded {
-                self.compand(out, c);
-            }
-            return;
+            return false;
         }
         let specs = self
             .last_specs
@@ -373,6 +371,10 @@ impl HdrPipeline {
         out.exposure_index = 0;
         // Every sample is written below (or zeroed where the captures do not match).
         out.data.resize(w * h, 0);
+        if captures.iter().take(n).any(|c| c.data.len() != w * h) {
+            out.data.fill(0);
+            return false;
+        }
         // The companded image: header now, rows in the merge pass.
         let mut companded = companded;
         let curve = match companded.as_deref_mut() {
@@ -382,13 +384,6 @@ impl HdrPipeline {
             }
             _ => None,
         };
-        if captures.iter().take(n).any(|c| c.data.len() != w * h) {
-            out.data.fill(0);
-            if let Some(c) = companded {
-                self.compand(out, c);
-            }
-            return;
-        }
         let captures = &captures[..n];
         let merge_row = |y: usize, row: &mut [u32]| {
             let mut rows: [&[u32]; 8] = [&[]; 8];
@@ -402,6 +397,7 @@ impl HdrPipeline {
                 *o = ((b0 + e * g0).clamp(0.0, out_max) + 0.5) as u32;
             }
         };
+        let fused = curve.is_some();
         match (companded, curve) {
             (Some(c), Some(curve)) => out
                 .data
@@ -412,16 +408,13 @@ impl HdrPipeline {
                     merge_row(y, row);
                     curve.apply(row, crow);
                 }),
-            (companded, _) => {
-                out.data
-                    .par_chunks_mut(w.max(1))
-                    .enumerate()
-                    .for_each(|(y, row)| merge_row(y, row));
-                if let Some(c) = companded {
-                    self.compand(out, c);
-                }
-            }
+            _ => out
+                .data
+                .par_chunks_mut(w.max(1))
+                .enumerate()
+                .for_each(|(y, row)| merge_row(y, row)),
         }
+        fused
     }
 
     /// PWL-compand a linear RAW (the knees are [`Self::knees`]); identity when

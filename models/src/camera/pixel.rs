@@ -387,7 +387,7 @@ pub struct ExposureSpec {
     pub index: u32,
     /// Another capture reads the same charge (the split pixel's high- and low-gain reads of the
     /// large photodiode): the shot noise must come from the stream they share, apart from the read
-    /// noise. Otherwise, above [`POISSON_EXACT_BELOW`] and away from the full well, the two
+    /// noise. Otherwise, above 20 e⁻ (the normal approximation) and away from the full well, the two
     /// independent normals are drawn as one (`μ + √(μ + σ_r²)·z`, the same distribution).
     pub shared_charge: bool,
 }

@@ -468,6 +468,31 @@ impl Mover {
         // NaN (0·∞ for a ray in a slab plane) is unordered: treat as a meet.
         near.partial_cmp(&far) != Some(std::cmp::Ordering::Greater)
     }
+
+    /// Whether a ray misses the bounding sphere: `oc` is its origin relative to the centre,
+    /// `cq = |oc|² − r²` (> 0: outside) and `bq = oc·d` (> 0: heading away).
+    #[inline(always)]
+    fn misses_sphere(cq: f64, bq: f64) -> bool {
+        (cq > 0.0) & ((bq > 0.0) | (bq * bq - cq < 0.0))
+    }
+
+    /// Queue item `i`'s ray from the origin shifted by `−shift` for a re-trace against this mover
+    /// (candidate `k`) if it meets the frame-time box, or always when the item's frame-time hit
+    /// is this mover (it may have moved off the ray).
+    #[inline(always)]
+    fn queue_retrace(&self, k: u32, i: usize, shift: DVec3, s: &mut Scratch) {
+        let ray = s.rays[i];
+        if s.hit_instance[i] != self.instance
+            && !self.ray_meets_box(ray.origin - shift, ray.direction, ray.t_max)
+        {
+            return;
+        }
+        let mut r2 = ray;
+        r2.origin = ray.origin - shift;
+        s.srays.push(r2);
+        s.pairs.push((i as u32, k));
+        s.idx.push(self.instance);
+    }
 }
 
 /// A cone: unit axis, cos and sin of the half-angle.
@@ -1678,7 +1703,8 @@ impl Ctx<'_> {
                     dir[2][j] = r.direction.z;
                 }
                 let (dt, origin) = (items[start].dt, s.rays[start].origin);
-                for &k in &s.cand {
+                for c in 0..s.cand.len() {
+                    let k = s.cand[c];
                     let mv = &self.movers[k as usize];
                     let shift = mv.velocity * dt;
                     if shift.length_squared() < 1e-6 {
@@ -1691,30 +1717,20 @@ impl Ctx<'_> {
                     let mut take = 0u64;
                     for j in 0..len {
                         let bq = oc.x * dir[0][j] + oc.y * dir[1][j] + oc.z * dir[2][j];
-                        let miss = (cq > 0.0) & ((bq > 0.0) | (bq * bq - cq < 0.0));
+                        let miss = Mover::misses_sphere(cq, bq);
                         let on_it = s.hit_instance[start + j] == mv.instance;
                         take |= u64::from(!miss | on_it) << j;
                     }
                     while take != 0 {
                         let j = take.trailing_zeros() as usize;
                         take &= take - 1;
-                        let i = start + j;
-                        let ray = s.rays[i];
-                        if s.hit_instance[i] != mv.instance
-                            && !mv.ray_meets_box(ray.origin - shift, ray.direction, ray.t_max)
-                        {
-                            continue;
-                        }
-                        let mut r2 = ray;
-                        r2.origin = ray.origin - shift;
-                        s.srays.push(r2);
-                        s.pairs.push((i as u32, k));
-                        s.idx.push(mv.instance);
+                        mv.queue_retrace(k, start + j, shift, s);
                     }
                 }
             } else if !s.cand.is_empty() {
                 // Mover-major: a mover's rays are consecutive (packets in the re-trace).
-                for &k in &s.cand {
+                for c in 0..s.cand.len() {
+                    let k = s.cand[c];
                     let mv = &self.movers[k as usize];
                     // Shifted origin relative to the mover, per run of rays with the same
                     // origin and time (a row of the rolling shutter).
@@ -1732,23 +1748,14 @@ impl Ctx<'_> {
                         if shift.length_squared() < 1e-6 {
                             continue;
                         }
-                        // Ray from the shifted origin against the frame-time box (always when
-                        // the frame-time hit is on this object: it may have moved off the ray).
-                        if s.hit_instance[i] != mv.instance {
-                            // Bounding sphere first (cheap), then the box.
-                            let bq = oc.dot(ray.direction);
-                            if cq > 0.0 && (bq > 0.0 || bq * bq - cq < 0.0) {
-                                continue;
-                            }
-                            if !mv.ray_meets_box(ray.origin - shift, ray.direction, ray.t_max) {
-                                continue;
-                            }
+                        // Bounding sphere first (cheap), then the box (always re-traced when the
+                        // frame-time hit is on this object).
+                        if s.hit_instance[i] != mv.instance
+                            && Mover::misses_sphere(cq, oc.dot(ray.direction))
+                        {
+                            continue;
                         }
-                        let mut r2 = ray;
-                        r2.origin = ray.origin - shift;
-                        s.srays.push(r2);
-                        s.pairs.push((i as u32, k));
-                        s.idx.push(mv.instance);
+                        mv.queue_retrace(k, i, shift, s);
                     }
                 }
             }

@@ -1263,12 +1263,7 @@ impl Material {
         if cos_i <= 0.0 || cos_o <= 0.0 {
             return (0.0, 0.0);
         }
-        let lobe = match band {
-            Band::Visible(_) => self.visible.specular.as_ref(),
-            Band::Nir905 => self.nir905.specular.as_ref(),
-            Band::Nir1550 => self.nir1550.specular.as_ref(),
-        };
-        match lobe {
+        match self.specular_lobe(band) {
             Some(s) => (
                 s.coupling(cos_i) * s.coupling(cos_o),
                 s.eval(wi, wo, n, cos_i, cos_o),
@@ -1279,10 +1274,15 @@ impl Material {
 
     /// Whether the material has a specular lobe in `band`.
     pub fn has_specular(&self, band: Band) -> bool {
+        self.specular_lobe(band).is_some()
+    }
+
+    /// The specular lobe of `band` (as [`Material::view`] picks it, without the diffuse lookup).
+    fn specular_lobe(&self, band: Band) -> Option<&SpecularLobe> {
         match band {
-            Band::Visible(_) => self.visible.specular.is_some(),
-            Band::Nir905 => self.nir905.specular.is_some(),
-            Band::Nir1550 => self.nir1550.specular.is_some(),
+            Band::Visible(_) => self.visible.specular.as_ref(),
+            Band::Nir905 => self.nir905.specular.as_ref(),
+            Band::Nir1550 => self.nir1550.specular.as_ref(),
         }
     }
 

@@ -82,6 +82,35 @@ fn coherent_occlusion(rays: &[Ray]) -> bool {
         .all(|r| (r.origin - o).abs().max_element() <= 0.5 && r.direction.dot(d) >= 0.99)
 }
 
+/// The batch queries' one packing loop, over rays `0..out.len()` in order: `eight(j, &mut out[j..j +
+/// 8])` where `fits(j, 8)` (AVX paths only), else `four(j, …)` where `fits(j, 4)`, else `one(j,
+/// &mut out[j])`. `fits(j, n)` is only asked with `j + n ≤ out.len()`. The queries' `body`s inline
+/// it into their AVX2 paths, so the closures must inline too.
+#[inline(always)]
+fn in_packets<const AVX: bool, T>(
+    out: &mut [T],
+    fits: impl Fn(usize, usize) -> bool,
+    eight: impl Fn(usize, &mut [T]),
+    four: impl Fn(usize, &mut [T]),
+    one: impl Fn(usize, &mut T),
+) {
+    let len = out.len();
+    let mut j = 0;
+    while j < len {
+        let rest = len - j;
+        if AVX && rest >= 8 && fits(j, 8) {
+            eight(j, &mut out[j..j + 8]);
+            j += 8;
+        } else if rest >= 4 && fits(j, 4) {
+            four(j, &mut out[j..j + 4]);
+            j += 4;
+        } else {
+            one(j, &mut out[j]);
+            j += 1;
+        }
+    }
+}
+
 /// Whether the CPU has AVX2 and FMA (cached by std after the first call).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
@@ -425,34 +454,28 @@ impl Space {
             instances: &[u32],
             out: &mut [Option<Hit>],
         ) {
-            let mut j = 0;
-            while j < rays.len() {
-                let k = instances[j];
-                let Some(inst) = space.instances.get(k as usize) else {
-                    out[j] = None;
-                    j += 1;
-                    continue;
-                };
-                // The run of rays against the same instance from here, if coherent.
-                let packet = |n: usize| {
-                    j + n <= rays.len()
+            // A packet: a coherent run of rays against one existing instance.
+            let inst = |j: usize| &space.instances[instances[j] as usize];
+            in_packets::<AVX, _>(
+                out,
+                // A packet: a coherent run of rays against one existing instance.
+                #[inline(always)]
+                |j, n| {
+                    let k = instances[j];
+                    space.instances.get(k as usize).is_some()
                         && instances[j..j + n].iter().all(|&i| i == k)
                         && coherent(&rays[j..j + n])
-                };
-                #[cfg(target_arch = "x86_64")]
-                if AVX && packet(8) {
-                    group::<Avx8, 8>(space, &rays[j..j + 8], k, inst, &mut out[j..j + 8]);
-                    j += 8;
-                    continue;
-                }
-                if packet(4) {
-                    group::<Vec4, 4>(space, &rays[j..j + 4], k, inst, &mut out[j..j + 4]);
-                    j += 4;
-                    continue;
-                }
-                out[j] = space.closest_hit_on_instance(&rays[j], k);
-                j += 1;
-            }
+                },
+                #[inline(always)]
+                |j, o| {
+                    #[cfg(target_arch = "x86_64")]
+                    group::<Avx8, 8>(space, &rays[j..j + 8], instances[j], inst(j), o);
+                },
+                #[inline(always)]
+                |j, o| group::<Vec4, 4>(space, &rays[j..j + 4], instances[j], inst(j), o),
+                #[inline(always)]
+                |j, o| *o = space.closest_hit_on_instance(&rays[j], instances[j]),
+            );
         }
         #[cfg(target_arch = "x86_64")]
         {
@@ -511,28 +534,24 @@ impl Space {
                     *hit = raw.map(|raw| space.finish_hit(ray, raw));
                 }
             }
-            let single = |ray: &Ray| {
-                space
-                    .closest_raw(&f32_ray(ray))
-                    .map(|raw| space.finish_hit(ray, raw))
-            };
-            let mut j = 0;
-            while j < rays.len() {
-                let rest = rays.len() - j;
-                #[cfg(target_arch = "x86_64")]
-                if AVX && rest >= 8 && coherent(&rays[j..j + 8]) {
-                    group::<Avx8, 8>(space, &rays[j..j + 8], &mut out[j..j + 8]);
-                    j += 8;
-                    continue;
-                }
-                if rest >= 4 && coherent(&rays[j..j + 4]) {
-                    group::<Vec4, 4>(space, &rays[j..j + 4], &mut out[j..j + 4]);
-                    j += 4;
-                } else {
-                    out[j] = single(&rays[j]);
-                    j += 1;
-                }
-            }
+            in_packets::<AVX, _>(
+                out,
+                #[inline(always)]
+                |j, n| coherent(&rays[j..j + n]),
+                #[inline(always)]
+                |j, o| {
+                    #[cfg(target_arch = "x86_64")]
+                    group::<Avx8, 8>(space, &rays[j..j + 8], o);
+                },
+                #[inline(always)]
+                |j, o| group::<Vec4, 4>(space, &rays[j..j + 4], o),
+                #[inline(always)]
+                |j, o| {
+                    *o = space
+                        .closest_raw(&f32_ray(&rays[j]))
+                        .map(|raw| space.finish_hit(&rays[j], raw))
+                },
+            );
         }
         #[cfg(target_arch = "x86_64")]
         {
@@ -561,23 +580,20 @@ impl Space {
                         .occluded_raw_packet::<V, N>(&std::array::from_fn(|l| f32_ray(&group[l]))),
                 );
             }
-            let mut j = 0;
-            while j < rays.len() {
-                let rest = rays.len() - j;
-                #[cfg(target_arch = "x86_64")]
-                if AVX && rest >= 8 && coherent_occlusion(&rays[j..j + 8]) {
-                    group::<Avx8, 8>(space, &rays[j..j + 8], &mut out[j..j + 8]);
-                    j += 8;
-                    continue;
-                }
-                if rest >= 4 && coherent_occlusion(&rays[j..j + 4]) {
-                    group::<Vec4, 4>(space, &rays[j..j + 4], &mut out[j..j + 4]);
-                    j += 4;
-                } else {
-                    out[j] = space.occluded_raw(&f32_ray(&rays[j]));
-                    j += 1;
-                }
-            }
+            in_packets::<AVX, _>(
+                out,
+                #[inline(always)]
+                |j, n| coherent_occlusion(&rays[j..j + n]),
+                #[inline(always)]
+                |j, o| {
+                    #[cfg(target_arch = "x86_64")]
+                    group::<Avx8, 8>(space, &rays[j..j + 8], o);
+                },
+                #[inline(always)]
+                |j, o| group::<Vec4, 4>(space, &rays[j..j + 4], o),
+                #[inline(always)]
+                |j, o| *o = space.occluded_raw(&f32_ray(&rays[j])),
+            );
         }
         #[cfg(target_arch = "x86_64")]
         {
