@@ -7,7 +7,7 @@ use osiris_models::environment::mesh::Mesh;
 use osiris_models::frames::Pose;
 use osiris_models::space::{
     self, BvhKind, Hit, InstanceDesc, MeshHandle, PathPolicy, Ray, Segment, Space, SpaceBuilder,
-    SpaceEffects, SpaceError, doppler_shift_hz, quad, subdivided_box,
+    SpaceEffects, SpaceError, Sweep, doppler_shift_hz, quad, subdivided_box,
 };
 
 const KINDS: [BvhKind; 2] = [BvhKind::Bvh2, BvhKind::CwBvh];
@@ -906,97 +906,154 @@ mod from_scene {
     }
 }
 
-/// One instance alone (`closest_hit_on_instance`, single and in packets) and the scene without it
-/// (`closest_hit_excluding`) against closed forms: the slab distances of the rotated box in its own
-/// frame, and the ground plane `t = h/(−d_z)` behind it.
+/// Rays at their own times through a [`Sweep`] (rolling shutter): a moving box is met where it is
+/// at the ray's time (window-clamped), the static ground stays put, a parked box does not move.
+/// Closed forms: the slab distances of the rotated box displaced by `v·t` in its own frame, and the
+/// ground plane `t = h/(−d_z)`. Single rays, 8- and 4-ray packets and occlusion all agree with them;
+/// at time 0 the sweep equals the space's own queries.
 #[test]
-fn instance_only_and_instance_excluded_queries_match_closed_forms() {
+fn swept_queries_see_moving_instances_at_each_ray_time() {
     for kind in KINDS {
         let mut b = SpaceBuilder::new().bvh_kind(kind);
         b.add_static(&ground(60.0, 8), &[GROUND]).unwrap();
         let h = b.add_mesh(&unit_box(2), &[PAINT]).unwrap();
         let mut space = b.build();
-        let (centre, yaw) = (DVec3::new(10.0, 0.5, 1.0), 0.3);
-        space.set_instances(&[instance(7, h, centre, yaw)]).unwrap();
+        let (centre, yaw, v) = (DVec3::new(10.0, 0.5, 1.0), 0.3, DVec3::new(8.0, -30.0, 0.0));
+        let parked = DVec3::new(10.0, -6.0, 1.0);
+        let mut moving = instance(7, h, centre, yaw);
+        moving.linear_velocity = v;
+        space
+            .set_instances(&[moving, instance(8, h, parked, 0.0)])
+            .unwrap();
+        let window = (-0.05, 0.1);
+        let mut sweep = Sweep::new();
+        let swept = sweep.update(&space, window);
         let rot = DMat3::from_rotation_z(yaw);
         let origin = DVec3::new(0.0, 0.0, 1.5);
         let mut rng = Rng(21);
-        // Four-ray groups of neighbouring directions (packets) aimed around the box.
+        // Eight-ray groups of neighbouring directions (packets) at one time per group, some times
+        // outside the window.
         let mut rays = Vec::new();
-        for _ in 0..300 {
-            let target = centre
-                + DVec3::new(
-                    rng.range(-2.0, 2.0),
-                    rng.range(-2.0, 2.0),
-                    rng.range(-2.0, 1.5),
-                );
+        for g in 0..300 {
+            let time = if g % 10 == 0 {
+                0.0
+            } else {
+                rng.range(-0.1, 0.15)
+            };
+            let c = if g % 3 == 0 {
+                parked
+            } else {
+                centre + v * time.clamp(window.0, window.1)
+            };
+            let target = c + DVec3::new(
+                rng.range(-2.0, 2.0),
+                rng.range(-2.0, 2.0),
+                rng.range(-2.0, 1.5),
+            );
             let d = (target - origin).normalize();
-            for k in 0..4 {
+            for k in 0..8 {
                 let e = DVec3::new(0.0, 1e-3 * k as f64, -1e-3 * k as f64);
-                rays.push(Ray::new(origin, d + e).with_t_max(100.0));
+                rays.push(Ray::new(origin, d + e).with_t_max(100.0).at_time(time));
             }
         }
-        let instances = vec![0u32; rays.len()];
         let mut batch = vec![None; rays.len()];
-        space.closest_hits_on_instances(&rays, &instances, &mut batch);
-        let (mut on_box, mut on_ground) = (0, 0);
+        swept.trace_batch(&rays, &mut batch);
+        // Four-ray packets: the same rays shifted by four.
+        let mut batch4 = vec![None; rays.len() - 4];
+        swept.trace_batch(&rays[4..], &mut batch4);
+        let mut occluded = vec![false; rays.len()];
+        swept.occluded_batch(&rays, &mut occluded);
+        let (mut on_moving, mut on_parked, mut on_ground) = (0, 0, 0);
         for (i, ray) in rays.iter().enumerate() {
-            // The box alone: slab test in the box frame (rigid: distances unchanged).
-            let o_local = rot.transpose() * (ray.origin - centre);
-            let d_local = rot.transpose() * ray.direction;
-            let expected = slab(o_local, d_local, DVec3::splat(-1.0), DVec3::splat(1.0))
-                .filter(|&(t0, _)| t0 > 0.0)
-                .map(|(t0, _)| t0);
-            let single = space.closest_hit_on_instance(ray, 0);
-            match (expected, single, batch[i]) {
-                (None, None, None) => {}
-                (Some(t), Some(a), Some(p)) => {
-                    on_box += 1;
-                    assert!(
-                        close(a.distance_m, t, 1e-9 * (1.0 + t)),
-                        "ray {i}: {} vs {t}",
-                        a.distance_m
-                    );
-                    assert!(
-                        close(p.distance_m, t, 1e-9 * (1.0 + t)),
-                        "ray {i}: packet {} vs {t}",
-                        p.distance_m
-                    );
-                    assert_eq!((a.object_id, p.object_id), (Some(7), Some(7)));
-                }
-                (e, a, p) => {
-                    // Grazing rays along an edge may go either way in f32.
-                    let graze = slab(
-                        o_local,
-                        d_local,
-                        DVec3::splat(-1.0 - 1e-5),
-                        DVec3::splat(1.0 + 1e-5),
-                    )
-                    .is_some_and(|(t0, t1)| t1 - t0 < 1e-4);
-                    assert!(graze, "ray {i}: expected {e:?}, single {a:?}, packet {p:?}");
-                }
-            }
-            // The scene without the box: the ground (z = 0) or nothing.
-            let behind = space.closest_hit_excluding(ray, 0);
+            let dt = ray.time_s.clamp(window.0, window.1);
+            let hit_box = |c: DVec3, rot: DMat3, grow: f64| {
+                let o_local = rot.transpose() * (ray.origin - c);
+                let d_local = rot.transpose() * ray.direction;
+                slab(
+                    o_local,
+                    d_local,
+                    DVec3::splat(-1.0 - grow),
+                    DVec3::splat(1.0 + grow),
+                )
+            };
+            let boxes = [
+                (hit_box(centre + v * dt, rot, 0.0), Some(7)),
+                (hit_box(parked, DMat3::IDENTITY, 0.0), Some(8)),
+            ];
             let t_ground = origin.z / -ray.direction.z;
             let p_ground = ray.at(t_ground);
-            if ray.direction.z < 0.0
+            let ground_hit = ray.direction.z < 0.0
                 && t_ground < ray.t_max
                 && p_ground.x.abs() < 60.0
-                && p_ground.y.abs() < 60.0
-            {
-                let t = t_ground;
-                let hit = behind.expect("ground behind the box");
-                assert!(close(hit.distance_m, t, 1e-9 * (1.0 + t)), "ray {i}");
-                assert_eq!(hit.object_id, None);
-                on_ground += 1;
-            } else {
-                assert!(behind.is_none(), "ray {i}: {behind:?}");
+                && p_ground.y.abs() < 60.0;
+            let mut expected: Option<(f64, Option<u64>)> = ground_hit.then_some((t_ground, None));
+            for (b, id) in boxes {
+                if let Some((t0, _)) = b.filter(|&(t0, _)| t0 > 0.0)
+                    && expected.is_none_or(|(t, _)| t0 < t)
+                {
+                    expected = Some((t0, id));
+                }
+            }
+            // Grazing rays along a box edge may go either way in f32.
+            let graze = [(centre + v * dt, rot), (parked, DMat3::IDENTITY)]
+                .iter()
+                .any(|&(c, r)| hit_box(c, r, 1e-5).is_some_and(|(t0, t1)| t1 - t0 < 1e-4));
+            let single = swept.closest_hit(ray);
+            let four = (i >= 4).then(|| batch4[i - 4]);
+            for (what, got) in [
+                ("single", Some(single)),
+                ("packet", Some(batch[i])),
+                ("packet4", four),
+            ] {
+                let Some(got) = got else { continue };
+                match (expected, got) {
+                    (None, None) => {}
+                    (Some((t, id)), Some(h)) if h.object_id == id => {
+                        assert!(
+                            close(h.distance_m, t, 1e-9 * (1.0 + t)),
+                            "ray {i} {what}: {} vs {t}",
+                            h.distance_m
+                        );
+                        assert!(
+                            (h.point - ray.at(t)).length() < 1e-8 * (1.0 + t),
+                            "ray {i} {what}"
+                        );
+                        let v_exp = if id == Some(7) { v } else { DVec3::ZERO };
+                        assert!((h.velocity_m_s - v_exp).length() < 1e-12, "ray {i} {what}");
+                    }
+                    (e, g) => assert!(graze, "ray {i} {what}: expected {e:?}, got {g:?}"),
+                }
+            }
+            assert!(
+                occluded[i] == expected.is_some() || graze,
+                "ray {i}: occluded {} vs {expected:?}",
+                occluded[i]
+            );
+            assert_eq!(swept.any_hit(ray), occluded[i], "ray {i}");
+            match expected.map(|e| e.1) {
+                Some(Some(7)) => on_moving += 1,
+                Some(Some(8)) => on_parked += 1,
+                Some(None) => on_ground += 1,
+                _ => {}
+            }
+            // At time 0 the sweep is the space at its poses.
+            if ray.time_s == 0.0 {
+                assert_eq!(single, space.closest_hit(ray), "ray {i}");
             }
         }
-        assert!(on_box > 400 && on_ground > 400, "{on_box} {on_ground}");
-        // An index past the instances is no hit, not a panic.
-        assert!(space.closest_hit_on_instance(&rays[0], 5).is_none());
+        assert!(
+            on_moving > 600 && on_parked > 300 && on_ground > 300,
+            "{on_moving} {on_parked} {on_ground}"
+        );
+        // Ray times are ignored by the space's own queries: the moving box at its pose.
+        let ray = Ray::new(origin, centre - origin).at_time(0.1);
+        let own = space.closest_hit(&ray).expect("the box at its pose");
+        assert_eq!(own.object_id, Some(7));
+        assert!(
+            swept
+                .closest_hit(&ray)
+                .is_none_or(|h| h.distance_m > own.distance_m + 0.1)
+        );
     }
 }
 

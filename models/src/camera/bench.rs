@@ -11,7 +11,7 @@
 //! OSI output), on a rayon pool of `threads` threads; the scene build is in the first (warm-up)
 //! step and not timed. The JSON reports the median frame rate and the cost split of the median
 //! frame from [`CameraSensor::times`] (with the renderer's own [`super::render::RenderStats`]:
-//! camera rays, shadow rays, moving-object re-traces, shading).
+//! camera rays, shadow rays, shading).
 
 use std::time::Instant;
 
@@ -348,7 +348,6 @@ pub fn bench_camera_with(
         "trace_s": r.trace_s,
         "camera_rays_s": r.camera_rays_s,
         "shadow_rays_s": r.shadow_rays_s,
-        "moving_objects_s": r.moving_objects_s,
         "shading_s": r.shading_s,
         "lens_s": times.lens_s,
         "pixel_s": times.pixel_s,

@@ -46,14 +46,13 @@
 //!
 //! Each row is rendered at the time of its exposure window (`camera.rolling_shutter`: row `r`
 //! starts `r·row_time_s` after row 0; [`ShutterTiming`]). The sensor pose is
-//! [`WorldFrame::sensor_pose_at`]; moving objects are displaced by `v·Δt` to first order: a ray
-//! whose time-shifted origin `o − v_i Δt` meets instance `i`'s box (bounding-cone and sphere tests
-//! first) is re-traced from that origin against instance `i` alone
-//! ([`crate::space::Space::closest_hits_on_instances`]: the static world does not move with it);
-//! the nearest such hit replaces the frame-time hit when closer. Where the frame-time hit was a
-//! moving object that has left the ray, what lies behind it is the scene without that instance
-//! ([`crate::space::Space::closest_hit_excluding`]). Translation only: the object's rotation over
-//! Δt is neglected, and other moving objects seen behind it keep their frame-time place.
+//! [`WorldFrame::sensor_pose_at`]. Every ray carries its time ([`Ray::time_s`]) and is traced
+//! through a [`Sweep`] of the frame's instances over the exposure windows (instance boxes swept by
+//! their velocity), which places each moving object at `position + v·Δt` for that ray: the ray is
+//! traced in the object's frame from the origin shifted by `−v·Δt`, the static world stays put.
+//! Translation only: the object's rotation over Δt is neglected. Camera rays, rays behind glass,
+//! shadow rays and bounce rays all see the scene at their pixel's time, so a moving object, its
+//! shadow and what it uncovers stay consistent.
 //! `camera.motion_blur` averages
 //! [`RenderConfig::motion_samples`] stratified time samples over the exposure window for the pixels
 //! whose image moves by more than [`RenderConfig::motion_threshold_px`] during the exposure (from
@@ -75,7 +74,7 @@ use std::collections::HashMap;
 use std::f64::consts::PI;
 use std::sync::Mutex;
 
-use glam::{DMat3, DVec3, Vec3};
+use glam::{DVec3, Vec3};
 use osiris_proto::osi3;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -93,7 +92,7 @@ use crate::environment::sun::SUN_RADIUS_DEG;
 use crate::environment::weather;
 use crate::frames::Pose;
 use crate::sensor::ModelError;
-use crate::space::{Hit, Ray, TransmissionModel, surface_epsilon};
+use crate::space::{Hit, Ray, Sweep, Swept, TransmissionModel, surface_epsilon};
 use crate::world::WorldFrame;
 
 /// Rolling shutter: row r is exposed from `r · row_time_s` after row 0, and the renderer traces it
@@ -303,7 +302,7 @@ pub struct SunInView {
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct RenderStats {
     /// Rays traced: camera rays (and motion-blur time samples, bounce rays), glass crossings,
-    /// shadow rays, moving-object re-traces.
+    /// shadow rays.
     pub rays: u64,
     /// All ray tracing.
     pub trace_s: f64,
@@ -311,8 +310,6 @@ pub struct RenderStats {
     pub camera_rays_s: f64,
     /// Of which shadow rays (sun and lamps).
     pub shadow_rays_s: f64,
-    /// Of which the re-traces of moving objects at each row's time (rolling shutter).
-    pub moving_objects_s: f64,
     /// The rest: spectral shading, ray generation, glass, motion-blur bookkeeping.
     pub shading_s: f64,
 }
@@ -352,6 +349,8 @@ pub struct Renderer {
     /// Object id per pixel (before compaction into `aux.object_ids`).
     pixel_ids: Vec<u64>,
     id_map: HashMap<u64, u32>,
+    /// The instances swept over each frame's exposure windows.
+    sweep: Sweep,
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -407,6 +406,8 @@ impl Rows {
 /// Everything a frame's pixels share.
 struct Ctx<'a> {
     frame: &'a WorldFrame<'a>,
+    /// The frame's space with the moving instances at each ray's time.
+    space: Swept<'a>,
     mats: &'a MaterialDb,
     rays: &'a [Vec3],
     width: usize,
@@ -430,73 +431,12 @@ struct Ctx<'a> {
     min_lux: f64,
     /// Per scene mesh, per part: 1 head lamps, 2 tail lamps.
     part_role: Vec<Vec<u8>>,
-    movers: Vec<Mover>,
     bounces: u32,
     max_crossings: u32,
     max_distance_m: f64,
     seed: u64,
     flicker: bool,
 }
-
-/// A moving instance: bounding sphere at frame time and velocity.
-#[derive(Clone, Copy)]
-struct Mover {
-    instance: u32,
-    centre: DVec3,
-    radius: f64,
-    velocity: DVec3,
-    /// |velocity|, m/s.
-    speed: f64,
-    /// Scene → mesh rotation (transpose of the pose's).
-    to_local: DMat3,
-    /// Mesh bounds (mesh frame, padded 5 cm), m.
-    lo: DVec3,
-    hi: DVec3,
-}
-
-impl Mover {
-    /// Whether the ray from `origin` along `dir` meets the mover's box (at frame time) within
-    /// `[0, t_max]` (slab test in the mesh frame).
-    fn ray_meets_box(&self, origin: DVec3, dir: DVec3, t_max: f64) -> bool {
-        let o = self.to_local * (origin - self.centre);
-        let d = self.to_local * dir;
-        let inv = d.recip();
-        let t0 = (self.lo - o) * inv;
-        let t1 = (self.hi - o) * inv;
-        let near = t0.min(t1).max_element().max(0.0);
-        let far = t0.max(t1).min_element().min(t_max);
-        // NaN (0·∞ for a ray in a slab plane) is unordered: treat as a meet.
-        near.partial_cmp(&far) != Some(std::cmp::Ordering::Greater)
-    }
-
-    /// Whether a ray misses the bounding sphere: `oc` is its origin relative to the centre,
-    /// `cq = |oc|² − r²` (> 0: outside) and `bq = oc·d` (> 0: heading away).
-    #[inline(always)]
-    fn misses_sphere(cq: f64, bq: f64) -> bool {
-        (cq > 0.0) & ((bq > 0.0) | (bq * bq - cq < 0.0))
-    }
-
-    /// Queue item `i`'s ray from the origin shifted by `−shift` for a re-trace against this mover
-    /// (candidate `k`) if it meets the frame-time box, or always when the item's frame-time hit
-    /// is this mover (it may have moved off the ray).
-    #[inline(always)]
-    fn queue_retrace(&self, k: u32, i: usize, shift: DVec3, s: &mut Scratch) {
-        let ray = s.rays[i];
-        if s.hit_instance[i] != self.instance
-            && !self.ray_meets_box(ray.origin - shift, ray.direction, ray.t_max)
-        {
-            return;
-        }
-        let mut r2 = ray;
-        r2.origin = ray.origin - shift;
-        s.srays.push(r2);
-        s.pairs.push((i as u32, k));
-        s.idx.push(self.instance);
-    }
-}
-
-/// A cone: unit axis, cos and sin of the half-angle.
-type Cone = (DVec3, f64, f64);
 
 struct GlassModel<'a> {
     mats: &'a MaterialDb,
@@ -561,27 +501,16 @@ struct Scratch {
     srays: Vec<Ray>,
     socc: Vec<bool>,
     idx: Vec<u32>,
-    cand: Vec<u32>,
     items: Vec<Item>,
     samples: Vec<Sample>,
     blur: Vec<Sample>,
     flicker: Vec<FlickerSample>,
-    pairs: Vec<(u32, u32)>,
-    /// Per mover: (index, cone of its swept bounding sphere: axis, cos α, sin α).
-    cones: Vec<(u32, Option<Cone>)>,
-    /// Whether item i's frame-time hit is a displaced mover.
-    moved: Vec<bool>,
     flags: Vec<bool>,
     blur_idx: Vec<u32>,
-    best: Vec<u32>,
-    /// Instance of each item's frame-time hit (`u32::MAX`: none, or the static world).
-    hit_instance: Vec<u32>,
     hits3: Vec<Option<Hit>>,
-    touched: Vec<bool>,
     dist: Vec<f64>,
     camera_s: f64,
     shadow_s: f64,
-    movers_s: f64,
     rays_n: u64,
 }
 
@@ -619,6 +548,7 @@ impl Renderer {
             lamp_plan: LampPlan::default(),
             pixel_ids: Vec::new(),
             id_map: HashMap::new(),
+            sweep: Sweep::new(),
         })
     }
 
@@ -768,32 +698,6 @@ impl Renderer {
                     .collect()
             })
             .collect();
-        let movers: Vec<Mover> = frame
-            .scene
-            .instances
-            .iter()
-            .enumerate()
-            .filter(|(_, i)| i.velocity_m_s.length() > 1e-3)
-            .map(|(k, i)| {
-                let (lo, hi) = frame.scene.meshes[i.mesh]
-                    .mesh
-                    .bounds()
-                    .map(|(lo, hi)| (lo.as_dvec3(), hi.as_dvec3()))
-                    .unwrap_or((DVec3::ZERO, DVec3::ZERO));
-                let radius = lo.abs().max(hi.abs()).length();
-                Mover {
-                    instance: k as u32,
-                    centre: i.pose_local.position,
-                    radius: radius + 0.05,
-                    velocity: i.velocity_m_s,
-                    speed: i.velocity_m_s.length(),
-                    to_local: i.pose_local.rotation.transpose(),
-                    lo: lo - DVec3::splat(0.05),
-                    hi: hi + DVec3::splat(0.05),
-                }
-            })
-            .collect();
-
         // The sun in view (for flare).
         let sun_sensor = frame.sensor_pose.inverse_transform_vector(sun_dir);
         if sun_up && sun_sensor.x > 0.0 {
@@ -816,8 +720,31 @@ impl Renderer {
             }
         }
 
+        // Times: row r's window starts at base + r·row_time.
+        let timing = input.timing;
+        let base = timing.frame_time_s - frame.time_s + timing.start_offset_s;
+        let row_time = if self.rolling { timing.row_time_s } else { 0.0 };
+        let exposure = timing.exposure_s.max(0.0);
+        let blur_samples = if self.blur {
+            self.config.motion_samples
+        } else {
+            1
+        };
+        let threshold = self.config.motion_threshold_px;
+
+        // Moving instances where they are at each ray's time: every item's time lies in
+        // [base, base + (h − 1)·row_time + exposure].
+        let space = self.sweep.update(
+            frame.space,
+            (
+                base,
+                base + h.saturating_sub(1) as f64 * row_time + exposure,
+            ),
+        );
+
         let ctx = Ctx {
             frame,
+            space,
             mats,
             rays: input.rays,
             width: w,
@@ -837,7 +764,6 @@ impl Renderer {
             lamp_lib: &self.lamp_lib,
             min_lux: self.config.lamps.min_illuminance_lux,
             part_role,
-            movers,
             bounces: self.config.diffuse_bounces,
             max_crossings: self.config.max_glass_crossings,
             max_distance_m: self.config.max_distance_m,
@@ -845,24 +771,12 @@ impl Renderer {
             flicker: self.flicker,
         };
 
-        // Times: row r's window starts at base + r·row_time.
-        let timing = input.timing;
-        let base = timing.frame_time_s - frame.time_s + timing.start_offset_s;
-        let row_time = if self.rolling { timing.row_time_s } else { 0.0 };
-        let exposure = timing.exposure_s.max(0.0);
-        let blur_samples = if self.blur {
-            self.config.motion_samples
-        } else {
-            1
-        };
-        let threshold = self.config.motion_threshold_px;
-
         self.pixel_ids.clear();
         self.pixel_ids.resize(n, u64::MAX);
         let rows_per_task = (4096 / w.max(1)).clamp(1, 64);
         let chunk = rows_per_task * w;
         let flicker_all = Mutex::new(Vec::<FlickerSample>::new());
-        let stats = Mutex::new(([0f64; 3], 0u64));
+        let stats = Mutex::new(([0f64; 2], 0u64));
         let [p0, p1, p2] = &mut out.radiance.planes;
         p0.par_chunks_mut(chunk)
             .zip(p1.par_chunks_mut(chunk))
@@ -1026,10 +940,7 @@ impl Renderer {
                         .extend_from_slice(&s.flicker);
                 }
                 let mut st = stats.lock().expect("stats");
-                for (a, b) in
-                    st.0.iter_mut()
-                        .zip([&mut s.camera_s, &mut s.shadow_s, &mut s.movers_s])
-                {
+                for (a, b) in st.0.iter_mut().zip([&mut s.camera_s, &mut s.shadow_s]) {
                     *a += std::mem::take(b);
                 }
                 st.1 += std::mem::take(&mut s.rays_n);
@@ -1075,8 +986,8 @@ impl Renderer {
             }
             *idx = last.1;
         }
-        let ([camera_s, shadow_s, movers_s], rays) = stats.into_inner().expect("stats");
-        let trace_s = camera_s + shadow_s + movers_s;
+        let ([camera_s, shadow_s], rays) = stats.into_inner().expect("stats");
+        let trace_s = camera_s + shadow_s;
         let total = t_start.elapsed().as_secs_f64();
         // Per-task trace time summed over threads; scale to wall-clock share.
         let threads = rayon::current_num_threads().max(1) as f64;
@@ -1084,7 +995,6 @@ impl Renderer {
         out.stats.trace_s = (trace_s / threads).min(total);
         out.stats.camera_rays_s = camera_s / threads;
         out.stats.shadow_rays_s = shadow_s / threads;
-        out.stats.moving_objects_s = movers_s / threads;
         out.stats.shading_s = (total - out.stats.trace_s).max(0.0);
     }
 }
@@ -1135,11 +1045,11 @@ impl Ctx<'_> {
         let t = std::time::Instant::now();
         if which {
             s.hits.resize(s.rays.len(), None);
-            self.frame.space.trace_batch(&s.rays, &mut s.hits);
+            self.space.trace_batch(&s.rays, &mut s.hits);
             s.camera_s += t.elapsed().as_secs_f64();
         } else {
             s.socc.resize(s.srays.len(), false);
-            self.frame.space.occluded_batch(&s.srays, &mut s.socc);
+            self.space.occluded_batch(&s.srays, &mut s.socc);
             s.shadow_s += t.elapsed().as_secs_f64();
         }
         s.rays_n += if which { s.rays.len() } else { s.srays.len() } as u64;
@@ -1186,14 +1096,13 @@ impl Ctx<'_> {
             }
             let pose = &pose_cache.1;
             let d = pose.rotation * self.rays[it.pixel as usize].as_dvec3();
-            s.rays
-                .push(Ray::new(pose.position, d).with_t_max(self.max_distance_m));
+            s.rays.push(
+                Ray::new(pose.position, d)
+                    .with_t_max(self.max_distance_m)
+                    .at_time(it.dt),
+            );
         }
         self.traced(s, true);
-        // Moving objects at the item's time.
-        if !self.movers.is_empty() {
-            self.displace_movers(items, s);
-        }
         // Glass (the first surface of the items whose ray passes glass is kept aside).
         s.glass_first.clear();
         s.panes.clear();
@@ -1244,7 +1153,7 @@ impl Ctx<'_> {
             let t = std::time::Instant::now();
             s.hits3.clear();
             s.hits3.resize(s.srays.len(), None);
-            self.frame.space.trace_batch(&s.srays, &mut s.hits3);
+            self.space.trace_batch(&s.srays, &mut s.hits3);
             s.camera_s += t.elapsed().as_secs_f64();
             s.rays_n += s.srays.len() as u64;
             let mut keep = 0;
@@ -1355,6 +1264,7 @@ impl Ctx<'_> {
                 i as u32,
                 &hit,
                 -ray.direction,
+                ray.time_s,
                 tr,
                 !self.bands || self.bounces == 0,
                 false,
@@ -1398,14 +1308,16 @@ impl Ctx<'_> {
         }
     }
 
-    /// Direct light at a surface point: sun (shadow ray), sky ambient (`ambient`), lamps (shadow
-    /// rays). `beta`: multiply by the item's bounce throughput.
+    /// Direct light at a surface point seen at `time_s` (its shadow rays at that time): sun
+    /// (shadow ray), sky ambient (`ambient`), lamps (shadow rays). `beta`: multiply by the item's
+    /// bounce throughput.
     #[allow(clippy::too_many_arguments)]
     fn shade_point(
         &self,
         item: u32,
         hit: &Hit,
         wo: DVec3,
+        time_s: f64,
         weight: f32,
         ambient: bool,
         beta: bool,
@@ -1472,6 +1384,7 @@ impl Ctx<'_> {
                 direction: self.sun_dir,
                 t_min: 0.0,
                 t_max: self.max_distance_m,
+                time_s,
             });
         }
         // Lamps.
@@ -1502,8 +1415,11 @@ impl Ctx<'_> {
                 gs: (fs * e) as f32 * weight,
                 beta,
             });
-            s.srays
-                .push(Ray::new(p, wi).with_t_max((r - 0.02).max(0.0)));
+            s.srays.push(
+                Ray::new(p, wi)
+                    .with_t_max((r - 0.02).max(0.0))
+                    .at_time(time_s),
+            );
         }
     }
 
@@ -1578,7 +1494,9 @@ impl Ctx<'_> {
                     + nrm * (1.0 - u1).max(0.0).sqrt())
                 .normalize();
                 s.rays.push(
-                    Ray::new(v.point + nrm * eps_at(v.point), d).with_t_max(self.max_distance_m),
+                    Ray::new(v.point + nrm * eps_at(v.point), d)
+                        .with_t_max(self.max_distance_m)
+                        .at_time(items[i].dt),
                 );
                 s.idx.push(i as u32);
             }
@@ -1604,234 +1522,12 @@ impl Ctx<'_> {
                     }
                     Some(hit) => {
                         let wo = -s.rays[j].direction;
-                        self.shade_point(i as u32, &hit, wo, 1.0, last, true, s);
+                        self.shade_point(i as u32, &hit, wo, items[i].dt, 1.0, last, true, s);
                         s.vert[i] = Some(hit);
                     }
                 }
             }
             self.resolve_shadows(s);
         }
-    }
-
-    /// Re-trace rays that meet a moving instance at the item's time (origin shifted by −v·Δt).
-    fn displace_movers(&self, items: &[Item], s: &mut Scratch) {
-        const GROUP: usize = 64;
-        // One bit per ray of a group in the sphere masks below.
-        const _: () = assert!(GROUP <= 64);
-        let n = items.len();
-        s.srays.clear();
-        s.idx.clear();
-        s.cand.clear();
-        s.pairs.clear();
-        if n == 0 {
-            return;
-        }
-        // Bounding sphere of each mover's sweep seen from the items' origins (all within a ball
-        // of radius `o_r` about `o`): the cone towards it (unit axis `u`, half-angle α), or
-        // `None` when the origins may lie inside the sphere. Per call, not per group.
-        let mut o_lo = DVec3::splat(f64::INFINITY);
-        let mut o_hi = DVec3::splat(f64::NEG_INFINITY);
-        let mut dt_max: f64 = 0.0;
-        for (ray, it) in s.rays.iter().zip(items) {
-            o_lo = o_lo.min(ray.origin);
-            o_hi = o_hi.max(ray.origin);
-            dt_max = dt_max.max(it.dt.abs());
-        }
-        let o = 0.5 * (o_lo + o_hi);
-        let o_r = 0.5 * (o_hi - o_lo).length();
-        s.cones.clear();
-        for (k, mv) in self.movers.iter().enumerate() {
-            if mv.speed * dt_max < 1e-3 {
-                continue;
-            }
-            let rad = mv.radius + mv.speed * dt_max + o_r;
-            let c = mv.centre - o;
-            let dist = c.length();
-            let cone = (dist > rad).then(|| {
-                let sin_a = rad / dist;
-                (c / dist, (1.0 - sin_a * sin_a).sqrt(), sin_a)
-            });
-            s.cones.push((k as u32, cone));
-        }
-        if s.cones.is_empty() {
-            return;
-        }
-        // The instance of each frame-time hit (`u32::MAX`: none or the static world), compact.
-        s.hit_instance.clear();
-        s.hit_instance.extend(
-            s.hits[..n]
-                .iter()
-                .map(|h| h.and_then(|h| h.instance).unwrap_or(u32::MAX)),
-        );
-        let mut start = 0;
-        while start < n {
-            let end = (start + GROUP).min(n);
-            // Cone of the group's directions.
-            let mut axis = DVec3::ZERO;
-            for i in start..end {
-                axis += s.rays[i].direction;
-            }
-            let axis = axis.normalize_or_zero();
-            let cos_half = (start..end)
-                .map(|i| s.rays[i].direction.dot(axis))
-                .fold(1.0f64, f64::min)
-                .clamp(-1.0, 1.0);
-            let sin_half = (1.0 - cos_half * cos_half).max(0.0).sqrt();
-            s.cand.clear();
-            for &(k, cone) in &s.cones {
-                // The two cones meet when the angle between their axes is ≤ half + α, i.e. (both
-                // below π) cos(angle) ≥ cos(half + α) = cos half cos α − sin half sin α.
-                let meets = cone.is_none_or(|(u, cos_a, sin_a)| {
-                    u.dot(axis) >= cos_half * cos_a - sin_half * sin_a
-                });
-                if meets {
-                    s.cand.push(k);
-                }
-            }
-            // A group of one origin and one time (a row's primary rays): its directions as
-            // arrays, each candidate's sphere test over them at once (vectorises).
-            let uniform = !s.cand.is_empty()
-                && (start + 1..end).all(|i| {
-                    items[i].dt == items[start].dt && s.rays[i].origin == s.rays[start].origin
-                });
-            if uniform {
-                let len = end - start;
-                let mut dir = [[0.0f64; GROUP]; 3];
-                for (j, r) in s.rays[start..end].iter().enumerate() {
-                    dir[0][j] = r.direction.x;
-                    dir[1][j] = r.direction.y;
-                    dir[2][j] = r.direction.z;
-                }
-                let (dt, origin) = (items[start].dt, s.rays[start].origin);
-                for c in 0..s.cand.len() {
-                    let k = s.cand[c];
-                    let mv = &self.movers[k as usize];
-                    let shift = mv.velocity * dt;
-                    if shift.length_squared() < 1e-6 {
-                        continue;
-                    }
-                    let oc = origin - shift - mv.centre;
-                    let cq = oc.length_squared() - mv.radius * mv.radius;
-                    // Bit j: ray j meets the bounding sphere (as the per-ray test below), or its
-                    // frame-time hit is this mover (always re-traced).
-                    let mut take = 0u64;
-                    for j in 0..len {
-                        let bq = oc.x * dir[0][j] + oc.y * dir[1][j] + oc.z * dir[2][j];
-                        let miss = Mover::misses_sphere(cq, bq);
-                        let on_it = s.hit_instance[start + j] == mv.instance;
-                        take |= u64::from(!miss | on_it) << j;
-                    }
-                    while take != 0 {
-                        let j = take.trailing_zeros() as usize;
-                        take &= take - 1;
-                        mv.queue_retrace(k, start + j, shift, s);
-                    }
-                }
-            } else if !s.cand.is_empty() {
-                // Mover-major: a mover's rays are consecutive (packets in the re-trace).
-                for c in 0..s.cand.len() {
-                    let k = s.cand[c];
-                    let mv = &self.movers[k as usize];
-                    // Shifted origin relative to the mover, per run of rays with the same
-                    // origin and time (a row of the rolling shutter).
-                    let mut key = (f64::NAN, DVec3::NAN);
-                    let (mut shift, mut oc, mut cq) = (DVec3::ZERO, DVec3::ZERO, 0.0);
-                    for i in start..end {
-                        let ray = s.rays[i];
-                        let dt = items[i].dt;
-                        if dt != key.0 || ray.origin != key.1 {
-                            key = (dt, ray.origin);
-                            shift = mv.velocity * dt;
-                            oc = ray.origin - shift - mv.centre;
-                            cq = oc.length_squared() - mv.radius * mv.radius;
-                        }
-                        if shift.length_squared() < 1e-6 {
-                            continue;
-                        }
-                        // Bounding sphere first (cheap), then the box (always re-traced when the
-                        // frame-time hit is on this object).
-                        if s.hit_instance[i] != mv.instance
-                            && Mover::misses_sphere(cq, oc.dot(ray.direction))
-                        {
-                            continue;
-                        }
-                        mv.queue_retrace(k, i, shift, s);
-                    }
-                }
-            }
-            start = end;
-        }
-        if s.srays.is_empty() {
-            return;
-        }
-        let t = std::time::Instant::now();
-        let space = &self.frame.space;
-        // Each candidate mover alone, at the item's time: the ray from the shifted origin against
-        // that instance's own BVH (the rest of the scene does not move with it). `s.best[i]`: the
-        // pair with the nearest mover hit of ray i; `s.moved[i]`: ray i's frame-time hit is a
-        // candidate mover.
-        s.hits3.clear();
-        s.hits3.resize(s.srays.len(), None);
-        space.closest_hits_on_instances(&s.srays, &s.idx, &mut s.hits3);
-        s.best.clear();
-        s.best.resize(n, u32::MAX);
-        s.moved.clear();
-        s.moved.resize(n, false);
-        s.touched.clear();
-        s.touched.resize(n, false);
-        for (j, (&(i, k), h)) in s.pairs.iter().zip(&s.hits3).enumerate() {
-            let i = i as usize;
-            s.touched[i] = true;
-            let mv = &self.movers[k as usize];
-            if s.hits[i].is_some_and(|h| h.instance == Some(mv.instance)) {
-                s.moved[i] = true;
-            }
-            if let Some(h) = h {
-                let b = s.best[i];
-                if b == u32::MAX || s.hits3[b as usize].is_some_and(|b| h.distance_m < b.distance_m)
-                {
-                    s.best[i] = j as u32;
-                }
-            }
-        }
-        let mut traced = s.pairs.len() as u64;
-        for i in 0..n {
-            if !s.touched[i] {
-                continue;
-            }
-            let cur = s.hits[i];
-            // The mover hit at the row's time, on the frame-time ray.
-            let best = s
-                .hits3
-                .get(s.best[i] as usize)
-                .copied()
-                .flatten()
-                .map(|mut h| {
-                    h.point = s.rays[i].at(h.distance_m);
-                    h
-                });
-            let nearer = |a: Option<Hit>, b: Option<Hit>| match (a, b) {
-                (Some(x), Some(y)) => Some(if y.distance_m < x.distance_m { y } else { x }),
-                (x, None) => x,
-                (None, y) => y,
-            };
-            s.hits[i] = match cur {
-                // The frame-time hit is a mover that has moved: nothing lay in front of it, so a
-                // displaced mover at or before that distance is the answer; else what lies behind
-                // it (the scene without that instance) or a farther displaced mover.
-                Some(c) if s.moved[i] => match best {
-                    Some(b) if b.distance_m <= c.distance_m => Some(b),
-                    _ => {
-                        traced += 1;
-                        let inst = c.instance.expect("a mover is an instance");
-                        nearer(space.closest_hit_excluding(&s.rays[i], inst), best)
-                    }
-                },
-                _ => nearer(cur, best),
-            };
-        }
-        s.movers_s += t.elapsed().as_secs_f64();
-        s.rays_n += traced;
-        s.srays.clear();
     }
 }

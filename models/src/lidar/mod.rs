@@ -436,6 +436,7 @@ impl LidarEngine {
                     direction: pose.rotation * ds,
                     t_min: 0.0,
                     t_max: self.t_max_m,
+                    time_s: 0.0,
                 });
             }
         }

@@ -553,6 +553,10 @@ pub(crate) struct Instance {
     pub(crate) desc: InstanceDesc,
     /// Scene → mesh frame, f32 (rigid: distances are preserved).
     pub(crate) scene_to_mesh: Affine3A,
+    /// `desc.linear_velocity` in f32, m/s (a swept query displaces the instance by `v·dt`).
+    pub(crate) velocity: Vec3A,
+    /// The linear velocity is not zero.
+    pub(crate) moving: bool,
 }
 
 /// The traceable scene: static world, object meshes and their instances. `Sync`: query from many
@@ -610,38 +614,11 @@ impl Space {
             self.instances.push(Instance {
                 desc: *d,
                 scene_to_mesh: scene_to_mesh(&d.pose),
+                velocity: d.linear_velocity.as_vec3a(),
+                moving: d.linear_velocity != DVec3::ZERO,
             });
         }
-        // Instances of empty meshes, and instances so far away that f32 cannot hold their box
-        // (beyond ±1e7 m from the scene origin: garbage input), get distinct point boxes far outside
-        // any scene: PLOC needs valid boxes, and identical boxes can trip its nearest-neighbour
-        // search. Rays never reach them.
-        for (i, b) in self.tlas_aabbs.iter_mut().enumerate() {
-            let usable = b.valid()
-                && b.min.is_finite()
-                && b.max.is_finite()
-                && b.min.abs().max_element() < 1e7
-                && b.max.abs().max_element() < 1e7;
-            if !usable {
-                let p = Vec3A::new(1e9 + 4096.0 * i as f32, 1e9, 1e9);
-                *b = Aabb::new(p, p);
-            }
-        }
-        // PLOC (medium search, one instance per leaf): ~0.15 ms for 500 boxes. Reinsertion passes did
-        // not reduce traversal cost measurably on the bench street, so there are none.
-        if self.instances.is_empty() {
-            self.tlas = Bvh2::default();
-        } else {
-            let indices = (0..self.tlas_aabbs.len() as u32).collect();
-            self.tlas_builder.build_with_bvh(
-                &mut self.tlas,
-                PlocSearchDistance::Medium,
-                &self.tlas_aabbs,
-                indices,
-                SortPrecision::U64,
-                0,
-            );
-        }
+        build_tlas(&mut self.tlas_builder, &mut self.tlas, &mut self.tlas_aabbs);
         self.tlas_shallow = traverse::depth(&self.tlas) < traverse::STACK;
         self.stats.tlas_builds += 1;
         self.stats.last_tlas_update_s = start.elapsed().as_secs_f64();
@@ -720,6 +697,56 @@ impl Space {
         }
         b.valid().then(|| (b.min.as_dvec3(), b.max.as_dvec3()))
     }
+}
+
+/// Build a top level over instance boxes (`aabbs[i]`: instance `i`, scene frame).
+///
+/// Instances of empty meshes, and instances so far away that f32 cannot hold their box (beyond
+/// ±1e7 m from the scene origin: garbage input), get distinct point boxes far outside any scene:
+/// PLOC needs valid boxes, and identical boxes can trip its nearest-neighbour search. Rays never
+/// reach them.
+///
+/// PLOC (medium search, one instance per leaf): ~0.15 ms for 500 boxes. Reinsertion passes did not
+/// reduce traversal cost measurably on the bench street, so there are none.
+pub(crate) fn build_tlas(builder: &mut PlocBuilder, tlas: &mut Bvh2, aabbs: &mut [Aabb]) {
+    for (i, b) in aabbs.iter_mut().enumerate() {
+        let usable = b.valid()
+            && b.min.is_finite()
+            && b.max.is_finite()
+            && b.min.abs().max_element() < 1e7
+            && b.max.abs().max_element() < 1e7;
+        if !usable {
+            let p = Vec3A::new(1e9 + 4096.0 * i as f32, 1e9, 1e9);
+            *b = Aabb::new(p, p);
+        }
+    }
+    if aabbs.is_empty() {
+        *tlas = Bvh2::default();
+    } else {
+        let indices = (0..aabbs.len() as u32).collect();
+        builder.build_with_bvh(
+            tlas,
+            PlocSearchDistance::Medium,
+            aabbs,
+            indices,
+            SortPrecision::U64,
+            0,
+        );
+    }
+}
+
+/// World box of instance `inst` (`local`: its mesh's box) over the displacements `v·dt` for `dt`
+/// in `[lo, hi]` s (the union of the boxes at both ends, padded for the f32 shift).
+pub(crate) fn swept_aabb(local: &Aabb, inst: &InstanceDesc, (lo, hi): (f64, f64)) -> Aabb {
+    let b = world_aabb(local, &inst.pose);
+    if !b.valid() || inst.linear_velocity == DVec3::ZERO {
+        return b;
+    }
+    let (a, c) = (inst.linear_velocity * lo, inst.linear_velocity * hi);
+    let pad = 1e-5 * (1.0 + a.abs().max(c.abs()).max_element());
+    let min = (b.min.as_dvec3() + a.min(c) - DVec3::splat(pad)).as_vec3a();
+    let max = (b.max.as_dvec3() + a.max(c) + DVec3::splat(pad)).as_vec3a();
+    Aabb::new(min, max)
 }
 
 /// Scene → mesh transform `R^T (p − t)` as an f32 affine.

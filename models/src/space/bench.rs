@@ -302,6 +302,7 @@ pub fn lidar_rays(origin: DVec3, channels: usize, steps: usize, t_max: f64) -> V
                 direction: d,
                 t_min: 0.0,
                 t_max,
+                time_s: 0.0,
             });
         }
     }
@@ -322,6 +323,7 @@ pub fn random_rays((lo, hi): (DVec3, DVec3), n: usize, seed: u64) -> Vec<Ray> {
                 direction: DVec3::new(r * phi.cos(), r * phi.sin(), z),
                 t_min: 0.0,
                 t_max: f64::INFINITY,
+                time_s: 0.0,
             }
         })
         .collect()

@@ -14,6 +14,10 @@
 //! Traversal: static BLAS first (its hit bounds the ray), then TLAS → ray transformed into the
 //! instance's local frame (rigid f32 affine, so distances are unchanged) → BLAS.
 //!
+//! Rays at their own times (rolling shutter, motion blur) go through a [`Sweep`]: a second TLAS over
+//! the instance boxes swept by their velocities over a time window, in which each moving instance
+//! is met at `position + v·Ray::time_s` (`sweep.rs`).
+//!
 //! * BVH2 trees are traversed by this module's stack traversal (`traverse.rs`: `tmin`-aware, the
 //!   stack keeps entry distances so nodes behind a closer hit are dropped unopened) over obvhs's
 //!   nodes; CWBVH trees by obvhs.
@@ -63,6 +67,7 @@ pub mod path;
 mod query;
 pub(crate) use query::surface_epsilon;
 mod scene;
+mod sweep;
 mod traverse;
 
 use glam::DVec3;
@@ -73,6 +78,7 @@ pub use accel::{
 pub use geometry::{cylinder, hexahedron, quad, subdivided_box};
 pub use path::{Path, PathPolicy, PathVertex, Segment, doppler_shift_hz, path_length_rate};
 pub use query::{TransmissionModel, Transmitted};
+pub use sweep::{Sweep, Swept};
 
 use crate::effects::{EffectInfo, Effects};
 use crate::environment::material::MaterialId;
@@ -144,6 +150,10 @@ pub struct Ray {
     pub direction: DVec3,
     pub t_min: f64,
     pub t_max: f64,
+    /// When the ray travels, relative to the instances' poses, s (the ray time of PBRT 4th ed.
+    /// §2.6). Only queries through a [`Sweep`] use it (each instance displaced by `v·time_s`);
+    /// [`Space`]'s own queries see the instances at their poses.
+    pub time_s: f64,
 }
 
 impl Ray {
@@ -154,7 +164,13 @@ impl Ray {
             direction: direction.normalize(),
             t_min: 0.0,
             t_max: f64::INFINITY,
+            time_s: 0.0,
         }
+    }
+
+    /// The same ray at time `time_s` (see [`Ray::time_s`]).
+    pub fn at_time(self, time_s: f64) -> Ray {
+        Ray { time_s, ..self }
     }
 
     /// The same ray limited to `t ≤ t_max`.

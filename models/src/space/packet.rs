@@ -316,6 +316,22 @@ impl<V: Lanes> Packet<V> {
         }
     }
 
+    /// The packet with its origins moved by `−v·dt` (lane `l`: `dt` lane `l`), i.e. seen from a
+    /// frame that moves with velocity `v` (m/s) for `dt` seconds: an instance at its place at time
+    /// `dt`, which the ray meets where the unmoved instance meets this packet.
+    #[inline(always)]
+    pub(crate) fn shifted(&self, v: glam::Vec3A, dt: V) -> Packet<V> {
+        let s = V::splat;
+        Packet {
+            o: [
+                self.o[0] - s(v.x) * dt,
+                self.o[1] - s(v.y) * dt,
+                self.o[2] - s(v.z) * dt,
+            ],
+            ..*self
+        }
+    }
+
     /// The packet in another frame (rigid `m`: distances unchanged). Directions get `+0.0` like
     /// single rays (no −0.0 components).
     #[inline(always)]

@@ -209,6 +209,7 @@ impl Space {
                 direction: direction.normalize(),
                 t_min: 0.0,
                 t_max: policy.segment_t_max,
+                time_s: r.time_s,
             };
             arrival = kind;
         }

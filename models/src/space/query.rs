@@ -1,6 +1,7 @@
 //! Ray queries: closest hit, any hit, batches, transmission.
 
 use glam::{DVec3, Vec3A};
+use obvhs::bvh2::Bvh2;
 use obvhs::ray::RayHit;
 use rayon::prelude::*;
 
@@ -15,7 +16,7 @@ use glam::Vec4;
 
 /// Rays per rayon task in the batch queries (large enough to amortise scheduling, small enough to
 /// balance 2–16 threads on a LiDAR frame; consecutive rays stay on one thread, keeping coherence).
-const CHUNK: usize = 512;
+pub(crate) const CHUNK: usize = 512;
 
 /// Instance index of a static-world hit.
 const STATIC: u32 = u32::MAX;
@@ -111,6 +112,16 @@ fn in_packets<const AVX: bool, T>(
     }
 }
 
+/// The displacement times of a packet's rays under `top`, one lane each.
+#[inline(always)]
+fn lane_times<V: Lanes, const N: usize>(top: Top<'_>, rays: &[Ray; N]) -> V {
+    if top.window.is_some() {
+        V::from_fn(|l| top.dt(rays[l].time_s) as f32)
+    } else {
+        V::splat(0.0)
+    }
+}
+
 /// Whether the CPU has AVX2 and FMA (cached by std after the first call).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
@@ -136,23 +147,64 @@ fn f32_ray(ray: &Ray) -> obvhs::ray::Ray {
     )
 }
 
+/// The ray in the instance's mesh frame; the instance displaced by `v·dt` first (`dt` in s, 0:
+/// at its pose).
 #[inline(always)]
-fn mesh_ray(inst: &Instance, r: &obvhs::ray::Ray) -> obvhs::ray::Ray {
-    let o = inst.scene_to_mesh.transform_point3a(r.origin);
+fn mesh_ray(inst: &Instance, r: &obvhs::ray::Ray, dt: f32) -> obvhs::ray::Ray {
+    let origin = if dt != 0.0 && inst.moving {
+        r.origin - inst.velocity * dt
+    } else {
+        r.origin
+    };
+    let o = inst.scene_to_mesh.transform_point3a(origin);
     let d = inst.scene_to_mesh.transform_vector3a(r.direction);
     obvhs_ray(o, d, r.tmin, r.tmax)
 }
 
-impl Space {
-    /// Closest surface on the ray (static world first, then the instances it could still hit).
+/// The top level a query traverses: the space's own (instances at their poses) or a
+/// [`super::Sweep`]'s (boxes swept over a time window; each ray sees the instances displaced by
+/// `v·time` at its own time).
+#[derive(Clone, Copy)]
+pub(crate) struct Top<'a> {
+    pub(crate) tlas: &'a Bvh2,
+    /// The TLAS fits [`traverse`]'s stack.
+    pub(crate) shallow: bool,
+    /// The sweep's time window, s (ray times are clamped into it); `None`: ray times are ignored.
+    pub(crate) window: Option<(f64, f64)>,
+}
+
+impl Top<'_> {
+    /// The displacement time of a ray at `time_s`, s.
     #[inline(always)]
-    pub(crate) fn closest_raw(&self, ray: &obvhs::ray::Ray) -> Option<RawHit> {
-        self.closest_raw_skipping(ray, None)
+    pub(crate) fn dt(&self, time_s: f64) -> f64 {
+        match self.window {
+            // `max` first: a NaN time goes to the window's start.
+            Some((lo, hi)) => time_s.max(lo).min(hi),
+            None => 0.0,
+        }
+    }
+}
+
+impl Space {
+    /// The space's own top level: instances at their poses.
+    #[inline(always)]
+    pub(crate) fn top(&self) -> Top<'_> {
+        Top {
+            tlas: &self.tlas,
+            shallow: self.tlas_shallow,
+            window: None,
+        }
     }
 
-    /// [`Space::closest_raw`] with one instance left out (`skip`).
+    /// Closest surface on the ray (static world first, then the instances it could still hit),
+    /// the instances displaced to time `dt` (s; see [`Top`]).
     #[inline(always)]
-    fn closest_raw_skipping(&self, ray: &obvhs::ray::Ray, skip: Option<u32>) -> Option<RawHit> {
+    pub(crate) fn closest_raw(
+        &self,
+        top: Top<'_>,
+        ray: &obvhs::ray::Ray,
+        dt: f32,
+    ) -> Option<RawHit> {
         let mut r = *ray;
         let mut best = None;
         if let Some((t, prim)) = self.static_blas.closest(&r) {
@@ -163,21 +215,18 @@ impl Space {
                 prim,
             });
         }
-        if self.tlas.nodes.is_empty() {
+        if top.tlas.nodes.is_empty() {
             return best;
         }
         // Into the instance's mesh frame, then its BLAS; `t` is unchanged by the rigid transform.
         let blas_hit = |i: u32, tr: &obvhs::ray::Ray| {
-            if Some(i) == skip {
-                return None;
-            }
             let inst = &self.instances[i as usize];
-            self.meshes[inst.desc.mesh.0 as usize].closest(&mesh_ray(inst, tr))
+            self.meshes[inst.desc.mesh.0 as usize].closest(&mesh_ray(inst, tr, dt))
         };
-        if self.tlas_shallow {
-            traverse(&self.tlas.nodes, &mut r, |first, count, tr| {
+        if top.shallow {
+            traverse(&top.tlas.nodes, &mut r, |first, count, tr| {
                 for p in first..first + count {
-                    let i = self.tlas.primitive_indices[p as usize];
+                    let i = top.tlas.primitive_indices[p as usize];
                     if let Some((t, prim)) = blas_hit(i, tr) {
                         tr.tmax = t;
                         best = Some(RawHit {
@@ -191,9 +240,9 @@ impl Space {
             });
         } else {
             let mut found = (STATIC, 0);
-            let mut top = RayHit::none();
-            let hit = self.tlas.ray_traverse(r, &mut top, |tr, id| {
-                let i = self.tlas.primitive_indices[id];
+            let mut hit_top = RayHit::none();
+            let hit = top.tlas.ray_traverse(r, &mut hit_top, |tr, id| {
+                let i = top.tlas.primitive_indices[id];
                 match blas_hit(i, tr) {
                     Some((t, prim)) => {
                         found = (i, prim);
@@ -204,7 +253,7 @@ impl Space {
             });
             if hit {
                 best = Some(RawHit {
-                    t: top.t,
+                    t: hit_top.t,
                     instance: found.0,
                     prim: found.1,
                 });
@@ -214,31 +263,39 @@ impl Space {
     }
 
     /// [`Space::closest_raw`] for a packet of `N` coherent rays (same results per ray), in lanes
-    /// `V` (`V::N == N`).
+    /// `V` (`V::N == N`); lane `l` at time `dt` lane `l`.
     #[inline(always)]
     pub(crate) fn closest_raw_packet<V: Lanes, const N: usize>(
         &self,
+        top: Top<'_>,
         rays: &[obvhs::ray::Ray; N],
+        dt: V,
     ) -> [Option<RawHit>; N] {
         debug_assert_eq!(V::N, N);
-        if !self.tlas_shallow {
-            return rays.map(|r| self.closest_raw(&r));
+        if !top.shallow {
+            return std::array::from_fn(|l| self.closest_raw(top, &rays[l], dt.lane(l)));
         }
         let mut p = Packet::<V>::new(rays);
         let none = V::splat(f32::from_bits(u32::MAX));
         let mut prim = none;
         let mut instance = [STATIC; N];
         self.static_blas.closest_packet(&mut p, &mut prim);
-        if !self.tlas.nodes.is_empty() {
+        if !top.tlas.nodes.is_empty() {
+            let timed = top.window.is_some();
             packet::traverse(
-                &self.tlas.nodes,
+                &top.tlas.nodes,
                 &mut p,
                 #[inline(always)]
                 |first, count, p| {
                     for q in first..first + count {
-                        let i = self.tlas.primitive_indices[q as usize];
+                        let i = top.tlas.primitive_indices[q as usize];
                         let inst = &self.instances[i as usize];
-                        let mut local = p.transformed(&inst.scene_to_mesh);
+                        let mut local = if timed && inst.moving {
+                            p.shifted(inst.velocity, dt)
+                                .transformed(&inst.scene_to_mesh)
+                        } else {
+                            p.transformed(&inst.scene_to_mesh)
+                        };
                         let mut local_prim = none;
                         self.meshes[inst.desc.mesh.0 as usize]
                             .closest_packet(&mut local, &mut local_prim);
@@ -268,31 +325,32 @@ impl Space {
         })
     }
 
-    /// Whether any surface lies on the ray (early exit on the first one found).
+    /// Whether any surface lies on the ray (early exit on the first one found), the instances at
+    /// time `dt`.
     #[inline(always)]
-    pub(crate) fn occluded_raw(&self, ray: &obvhs::ray::Ray) -> bool {
+    pub(crate) fn occluded_raw(&self, top: Top<'_>, ray: &obvhs::ray::Ray, dt: f32) -> bool {
         if self.static_blas.occluded(ray) {
             return true;
         }
-        if self.tlas.nodes.is_empty() {
+        if top.tlas.nodes.is_empty() {
             return false;
         }
         let blas_occluded = |i: u32, tr: &obvhs::ray::Ray| {
             let inst = &self.instances[i as usize];
-            self.meshes[inst.desc.mesh.0 as usize].occluded(&mesh_ray(inst, tr))
+            self.meshes[inst.desc.mesh.0 as usize].occluded(&mesh_ray(inst, tr, dt))
         };
-        if self.tlas_shallow {
+        if top.shallow {
             let mut r = *ray;
             let mut hit = false;
-            traverse(&self.tlas.nodes, &mut r, |first, count, tr| {
+            traverse(&top.tlas.nodes, &mut r, |first, count, tr| {
                 hit = (first..first + count)
-                    .any(|p| blas_occluded(self.tlas.primitive_indices[p as usize], tr));
+                    .any(|p| blas_occluded(top.tlas.primitive_indices[p as usize], tr));
                 !hit
             });
             hit
         } else {
-            !self.tlas.ray_traverse_miss(*ray, |tr, id| {
-                if blas_occluded(self.tlas.primitive_indices[id], tr) {
+            !top.tlas.ray_traverse_miss(*ray, |tr, id| {
+                if blas_occluded(top.tlas.primitive_indices[id], tr) {
                     f32::NEG_INFINITY
                 } else {
                     f32::INFINITY
@@ -301,29 +359,37 @@ impl Space {
         }
     }
 
-    /// [`Space::occluded_raw`] for a packet of `N` coherent rays, in lanes `V` (`V::N == N`).
+    /// [`Space::occluded_raw`] for a packet of `N` coherent rays, in lanes `V` (`V::N == N`);
+    /// lane `l` at time `dt` lane `l`.
     #[inline(always)]
     pub(crate) fn occluded_raw_packet<V: Lanes, const N: usize>(
         &self,
+        top: Top<'_>,
         rays: &[obvhs::ray::Ray; N],
+        dt: V,
     ) -> [bool; N] {
         debug_assert_eq!(V::N, N);
-        if !self.tlas_shallow {
-            return rays.map(|r| self.occluded_raw(&r));
+        if !top.shallow {
+            return std::array::from_fn(|l| self.occluded_raw(top, &rays[l], dt.lane(l)));
         }
         let all = (1u32 << N) - 1;
         let mut p = Packet::<V>::new(rays);
         let mut done = self.static_blas.occluded_packet(&mut p);
-        if done != all && !self.tlas.nodes.is_empty() {
+        if done != all && !top.tlas.nodes.is_empty() {
+            let timed = top.window.is_some();
             packet::traverse(
-                &self.tlas.nodes,
+                &top.tlas.nodes,
                 &mut p,
                 #[inline(always)]
                 |first, count, p| {
                     for q in first..first + count {
-                        let inst =
-                            &self.instances[self.tlas.primitive_indices[q as usize] as usize];
-                        let mut local = p.transformed(&inst.scene_to_mesh);
+                        let inst = &self.instances[top.tlas.primitive_indices[q as usize] as usize];
+                        let mut local = if timed && inst.moving {
+                            p.shifted(inst.velocity, dt)
+                                .transformed(&inst.scene_to_mesh)
+                        } else {
+                            p.transformed(&inst.scene_to_mesh)
+                        };
                         let hit =
                             self.meshes[inst.desc.mesh.0 as usize].occluded_packet(&mut local);
                         for l in 0..N {
@@ -341,9 +407,10 @@ impl Space {
     }
 
     /// The full hit record: distance and point recomputed in f64 from the hit triangle's plane,
-    /// normal, material, object and point velocity.
+    /// normal, material, object and point velocity (an instance displaced to the ray's time under
+    /// `top`).
     #[inline(always)]
-    pub(crate) fn finish_hit(&self, ray: &Ray, raw: RawHit) -> Hit {
+    pub(crate) fn finish_hit(&self, top: Top<'_>, ray: &Ray, raw: RawHit) -> Hit {
         let inst = (raw.instance != STATIC).then(|| &self.instances[raw.instance as usize]);
         let blas = match inst {
             None => &self.static_blas,
@@ -355,10 +422,17 @@ impl Space {
             .cross(tri.e2.as_dvec3())
             .normalize_or_zero();
         let v0_mesh = tri.v0.as_dvec3();
+        // The instance's displacement at the ray's time, m.
+        let shift = match inst {
+            Some(i) if top.window.is_some() && i.moving => {
+                i.desc.linear_velocity * top.dt(ray.time_s)
+            }
+            _ => DVec3::ZERO,
+        };
         let (v0, n) = match inst {
             None => (v0_mesh, n_mesh),
             Some(i) => (
-                i.desc.pose.transform_point(v0_mesh),
+                i.desc.pose.transform_point(v0_mesh) + shift,
                 i.desc.pose.rotation * n_mesh,
             ),
         };
@@ -386,122 +460,15 @@ impl Space {
             object_id: inst.map(|i| i.desc.object_id),
             instance: inst.map(|_| raw.instance),
             triangle,
-            velocity_m_s: inst.map_or(DVec3::ZERO, |i| i.desc.point_velocity(point)),
+            // v + ω × (p − position), the position displaced with the instance.
+            velocity_m_s: inst.map_or(DVec3::ZERO, |i| i.desc.point_velocity(point - shift)),
         }
     }
-
-    /// The closest surface of instance `instance` (index in the last [`Space::set_instances`] call)
-    /// on the ray, the rest of the scene ignored; `None` if the ray misses it or there is no such
-    /// instance. One bottom-level traversal: the cheap re-trace of a single moving object at
-    /// another time (rolling shutter).
-    pub fn closest_hit_on_instance(&self, ray: &Ray, instance: u32) -> Option<Hit> {
-        let inst = self.instances.get(instance as usize)?;
-        let r = f32_ray(ray);
-        let (t, prim) = self.meshes[inst.desc.mesh.0 as usize].closest(&mesh_ray(inst, &r))?;
-        Some(self.finish_hit(ray, RawHit { t, instance, prim }))
-    }
-
-    /// [`Space::closest_hit_on_instance`] for a run of rays, ray `j` against instance
-    /// `instances[j]` (`out[j]`); eight (AVX2) or four consecutive coherent rays against the same
-    /// instance are traced as one packet ([`Space::trace_batch`] explains coherence). Runs on the calling thread.
-    /// Panics if the lengths differ.
-    pub fn closest_hits_on_instances(
-        &self,
-        rays: &[Ray],
-        instances: &[u32],
-        out: &mut [Option<Hit>],
-    ) {
-        assert!(
-            rays.len() == instances.len() && rays.len() == out.len(),
-            "closest_hits_on_instances: {} rays, {} instances, {} outputs",
-            rays.len(),
-            instances.len(),
-            out.len()
-        );
-        /// `rays` (`N` of them, coherent) against instance `k` alone, as one packet.
-        #[inline(always)]
-        fn group<V: Lanes, const N: usize>(
-            space: &Space,
-            rays: &[Ray],
-            k: u32,
-            inst: &Instance,
-            out: &mut [Option<Hit>],
-        ) {
-            let blas = &space.meshes[inst.desc.mesh.0 as usize];
-            let mut local =
-                Packet::<V>::new(&std::array::from_fn::<_, N, _>(|l| f32_ray(&rays[l])))
-                    .transformed(&inst.scene_to_mesh);
-            let mut prim = V::splat(f32::from_bits(u32::MAX));
-            blas.closest_packet(&mut local, &mut prim);
-            for (l, (ray, o)) in rays.iter().zip(out).enumerate() {
-                let p = prim.lane(l).to_bits();
-                *o = (p != u32::MAX).then(|| {
-                    space.finish_hit(
-                        ray,
-                        RawHit {
-                            t: local.tmax.lane(l),
-                            instance: k,
-                            prim: p,
-                        },
-                    )
-                });
-            }
-        }
-        #[inline(always)]
-        fn body<const AVX: bool>(
-            space: &Space,
-            rays: &[Ray],
-            instances: &[u32],
-            out: &mut [Option<Hit>],
-        ) {
-            // A packet: a coherent run of rays against one existing instance.
-            let inst = |j: usize| &space.instances[instances[j] as usize];
-            in_packets::<AVX, _>(
-                out,
-                // A packet: a coherent run of rays against one existing instance.
-                #[inline(always)]
-                |j, n| {
-                    let k = instances[j];
-                    space.instances.get(k as usize).is_some()
-                        && instances[j..j + n].iter().all(|&i| i == k)
-                        && coherent(&rays[j..j + n])
-                },
-                #[inline(always)]
-                |j, o| {
-                    #[cfg(target_arch = "x86_64")]
-                    group::<Avx8, 8>(space, &rays[j..j + 8], instances[j], inst(j), o);
-                },
-                #[inline(always)]
-                |j, o| group::<Vec4, 4>(space, &rays[j..j + 4], instances[j], inst(j), o),
-                #[inline(always)]
-                |j, o| *o = space.closest_hit_on_instance(&rays[j], instances[j]),
-            );
-        }
-        #[cfg(target_arch = "x86_64")]
-        {
-            #[target_feature(enable = "avx2,fma")]
-            fn avx2(space: &Space, rays: &[Ray], instances: &[u32], out: &mut [Option<Hit>]) {
-                body::<true>(space, rays, instances, out)
-            }
-            if avx2_fma() {
-                // SAFETY: the CPU supports AVX2 and FMA (checked at run time just above).
-                return unsafe { avx2(self, rays, instances, out) };
-            }
-        }
-        body::<false>(self, rays, instances, out)
-    }
-
-    /// The closest surface on the ray with instance `instance` left out (what lies behind it).
-    pub fn closest_hit_excluding(&self, ray: &Ray, instance: u32) -> Option<Hit> {
-        self.closest_raw_skipping(&f32_ray(ray), Some(instance))
-            .map(|raw| self.finish_hit(ray, raw))
-    }
-
     /// The closest surface on the ray within `[t_min, t_max]`.
     #[inline]
     pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
         let mut out = [None];
-        self.trace_chunk(std::slice::from_ref(ray), &mut out);
+        self.trace_chunk(self.top(), std::slice::from_ref(ray), &mut out);
         out[0]
     }
 
@@ -510,28 +477,38 @@ impl Space {
     #[inline]
     pub fn any_hit(&self, ray: &Ray) -> bool {
         let mut out = [false];
-        self.occluded_chunk(std::slice::from_ref(ray), &mut out);
+        self.occluded_chunk(self.top(), std::slice::from_ref(ray), &mut out);
         out[0]
     }
 
-    /// Closest hits of a run of rays, with the traversal compiled for AVX2 + FMA where the CPU has
-    /// them (run-time detection; the workspace builds for baseline x86-64). Both paths perform the
-    /// same IEEE operations (no FMA contraction), so results do not depend on the path.
-    fn trace_chunk(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+    /// Closest hits of a run of rays through `top`, with the traversal compiled for AVX2 + FMA
+    /// where the CPU has them (run-time detection; the workspace builds for baseline x86-64). Both
+    /// paths perform the same IEEE operations (no FMA contraction), so results do not depend on
+    /// the path.
+    pub(crate) fn trace_chunk(&self, top: Top<'_>, rays: &[Ray], out: &mut [Option<Hit>]) {
         #[inline(always)]
-        fn body<const AVX: bool>(space: &Space, rays: &[Ray], out: &mut [Option<Hit>]) {
+        fn body<const AVX: bool>(
+            space: &Space,
+            top: Top<'_>,
+            rays: &[Ray],
+            out: &mut [Option<Hit>],
+        ) {
             // Eight coherent rays as one packet (AVX), else four, else one by one.
             #[inline(always)]
             fn group<V: Lanes, const N: usize>(
                 space: &Space,
+                top: Top<'_>,
                 rays: &[Ray],
                 out: &mut [Option<Hit>],
             ) {
                 let group: &[Ray; N] = rays.try_into().expect("a group of N rays");
-                let raw =
-                    space.closest_raw_packet::<V, N>(&std::array::from_fn(|l| f32_ray(&group[l])));
+                let raw = space.closest_raw_packet::<V, N>(
+                    top,
+                    &std::array::from_fn(|l| f32_ray(&group[l])),
+                    lane_times(top, group),
+                );
                 for ((ray, raw), hit) in group.iter().zip(raw).zip(out) {
-                    *hit = raw.map(|raw| space.finish_hit(ray, raw));
+                    *hit = raw.map(|raw| space.finish_hit(top, ray, raw));
                 }
             }
             in_packets::<AVX, _>(
@@ -541,44 +518,51 @@ impl Space {
                 #[inline(always)]
                 |j, o| {
                     #[cfg(target_arch = "x86_64")]
-                    group::<Avx8, 8>(space, &rays[j..j + 8], o);
+                    group::<Avx8, 8>(space, top, &rays[j..j + 8], o);
                 },
                 #[inline(always)]
-                |j, o| group::<Vec4, 4>(space, &rays[j..j + 4], o),
+                |j, o| group::<Vec4, 4>(space, top, &rays[j..j + 4], o),
                 #[inline(always)]
                 |j, o| {
+                    let ray = &rays[j];
                     *o = space
-                        .closest_raw(&f32_ray(&rays[j]))
-                        .map(|raw| space.finish_hit(&rays[j], raw))
+                        .closest_raw(top, &f32_ray(ray), top.dt(ray.time_s) as f32)
+                        .map(|raw| space.finish_hit(top, ray, raw))
                 },
             );
         }
         #[cfg(target_arch = "x86_64")]
         {
             #[target_feature(enable = "avx2,fma")]
-            fn avx2(space: &Space, rays: &[Ray], out: &mut [Option<Hit>]) {
-                body::<true>(space, rays, out)
+            fn avx2(space: &Space, top: Top<'_>, rays: &[Ray], out: &mut [Option<Hit>]) {
+                body::<true>(space, top, rays, out)
             }
             if avx2_fma() {
                 // SAFETY: the CPU supports AVX2 and FMA (checked at run time just above).
-                return unsafe { avx2(self, rays, out) };
+                return unsafe { avx2(self, top, rays, out) };
             }
         }
-        body::<false>(self, rays, out)
+        body::<false>(self, top, rays, out)
     }
 
     /// [`Space::trace_chunk`] for occlusion.
-    fn occluded_chunk(&self, rays: &[Ray], out: &mut [bool]) {
+    pub(crate) fn occluded_chunk(&self, top: Top<'_>, rays: &[Ray], out: &mut [bool]) {
         #[inline(always)]
-        fn body<const AVX: bool>(space: &Space, rays: &[Ray], out: &mut [bool]) {
+        fn body<const AVX: bool>(space: &Space, top: Top<'_>, rays: &[Ray], out: &mut [bool]) {
             // Eight coherent rays as one packet (AVX), else four, else one by one.
             #[inline(always)]
-            fn group<V: Lanes, const N: usize>(space: &Space, rays: &[Ray], out: &mut [bool]) {
+            fn group<V: Lanes, const N: usize>(
+                space: &Space,
+                top: Top<'_>,
+                rays: &[Ray],
+                out: &mut [bool],
+            ) {
                 let group: &[Ray; N] = rays.try_into().expect("a group of N rays");
-                out.copy_from_slice(
-                    &space
-                        .occluded_raw_packet::<V, N>(&std::array::from_fn(|l| f32_ray(&group[l]))),
-                );
+                out.copy_from_slice(&space.occluded_raw_packet::<V, N>(
+                    top,
+                    &std::array::from_fn(|l| f32_ray(&group[l])),
+                    lane_times(top, group),
+                ));
             }
             in_packets::<AVX, _>(
                 out,
@@ -587,26 +571,29 @@ impl Space {
                 #[inline(always)]
                 |j, o| {
                     #[cfg(target_arch = "x86_64")]
-                    group::<Avx8, 8>(space, &rays[j..j + 8], o);
+                    group::<Avx8, 8>(space, top, &rays[j..j + 8], o);
                 },
                 #[inline(always)]
-                |j, o| group::<Vec4, 4>(space, &rays[j..j + 4], o),
+                |j, o| group::<Vec4, 4>(space, top, &rays[j..j + 4], o),
                 #[inline(always)]
-                |j, o| *o = space.occluded_raw(&f32_ray(&rays[j])),
+                |j, o| {
+                    let ray = &rays[j];
+                    *o = space.occluded_raw(top, &f32_ray(ray), top.dt(ray.time_s) as f32)
+                },
             );
         }
         #[cfg(target_arch = "x86_64")]
         {
             #[target_feature(enable = "avx2,fma")]
-            fn avx2(space: &Space, rays: &[Ray], out: &mut [bool]) {
-                body::<true>(space, rays, out)
+            fn avx2(space: &Space, top: Top<'_>, rays: &[Ray], out: &mut [bool]) {
+                body::<true>(space, top, rays, out)
             }
             if avx2_fma() {
                 // SAFETY: the CPU supports AVX2 and FMA (checked at run time just above).
-                return unsafe { avx2(self, rays, out) };
+                return unsafe { avx2(self, top, rays, out) };
             }
         }
-        body::<false>(self, rays, out)
+        body::<false>(self, top, rays, out)
     }
 
     /// Whether the straight segment between two points (typically on surfaces) is free of surfaces,
@@ -626,6 +613,7 @@ impl Space {
             direction: d / len,
             t_min: eps,
             t_max: len - eps,
+            time_s: 0.0,
         };
         !self.any_hit(&ray)
     }
@@ -642,9 +630,10 @@ impl Space {
             rays.len(),
             out.len()
         );
+        let top = self.top();
         rays.par_chunks(CHUNK)
             .zip(out.par_chunks_mut(CHUNK))
-            .for_each(|(rays, out)| self.trace_chunk(rays, out));
+            .for_each(|(rays, out)| self.trace_chunk(top, rays, out));
     }
 
     /// [`Space::trace_batch`] into a new vector.
@@ -665,9 +654,10 @@ impl Space {
             rays.len(),
             out.len()
         );
+        let top = self.top();
         rays.par_chunks(CHUNK)
             .zip(out.par_chunks_mut(CHUNK))
-            .for_each(|(rays, out)| self.occluded_chunk(rays, out));
+            .for_each(|(rays, out)| self.occluded_chunk(top, rays, out));
     }
 
     /// The closest surface that stops the ray, passing through up to `max_crossings` transmissive
