@@ -385,14 +385,13 @@ impl HdrPipeline {
             _ => None,
         };
         let captures = &captures[..n];
-        let merge_row = |y: usize, row: &mut [u32]| {
+        let merge_row = |m: &mut MergeRow, y: usize, row: &mut [u32]| {
             let mut rows: [&[u32]; 8] = [&[]; 8];
             for (r, c) in rows.iter_mut().zip(captures) {
                 *r = &c.data[y * w..(y + 1) * w];
             }
-            let rows = &rows[..captures.len()];
-            for (x, o) in row.iter_mut().enumerate() {
-                let e = merge_pixel(plan, rows, x);
+            m.merge(plan, &rows[..captures.len()]);
+            for (o, &e) in row.iter_mut().zip(&m.num) {
                 // Round half up within [0, out_max] (`as` truncates).
                 *o = ((b0 + e * g0).clamp(0.0, out_max) + 0.5) as u32;
             }
@@ -404,15 +403,15 @@ impl HdrPipeline {
                 .par_chunks_mut(w.max(1))
                 .zip(c.data.par_chunks_mut(w.max(1)))
                 .enumerate()
-                .for_each(|(y, (row, crow))| {
-                    merge_row(y, row);
+                .for_each_init(MergeRow::default, |m, (y, (row, crow))| {
+                    merge_row(m, y, row);
                     curve.apply(row, crow);
                 }),
             _ => out
                 .data
                 .par_chunks_mut(w.max(1))
                 .enumerate()
-                .for_each(|(y, row)| merge_row(y, row)),
+                .for_each_init(MergeRow::default, |m, (y, row)| merge_row(m, y, row)),
         }
         fused
     }
@@ -529,37 +528,67 @@ impl<'a> Pwl<'a> {
     }
 }
 
-/// Ê of one pixel, e⁻/s of large-PD-equivalent generation rate.
+/// Ê of a row of pixels, e⁻/s of large-PD-equivalent generation rate, in passes over the row
+/// (branch-free per pixel: they vectorise).
 ///
 /// The variances of the weights use the estimate of the most sensitive usable capture (the one
 /// with the smallest relative error): in the shot-limited regime the weights then scale together
-/// with it, so their ratios, and the merge, do not depend on that capture's noise.
-#[inline]
-fn merge_pixel(plan: &[MergeCapture], rows: &[&[u32]], x: usize) -> f64 {
-    let mut est = [0.0f64; 8];
-    let mut usable = [false; 8];
-    let mut reference = f64::NAN;
-    for (j, (p, r)) in plan.iter().zip(rows).enumerate() {
-        let y = f64::from(r[x]);
-        est[j] = (y - p.black) * p.inv_g;
-        usable[j] = y <= p.usable_dn;
-        if usable[j] && reference.is_nan() {
-            reference = est[j].max(0.0);
+/// with it, so their ratios, and the merge, do not depend on that capture's noise. Where every
+/// capture is saturated, the least sensitive capture's (clipped) value.
+#[derive(Default)]
+struct MergeRow {
+    /// The reference estimate per pixel (NaN: no usable capture); then the result.
+    num: Vec<f64>,
+    reference: Vec<f64>,
+    den: Vec<f64>,
+}
+
+impl MergeRow {
+    /// Merge the rows of the captures (`rows[j]`: capture `j`, planned as `plan[j]`) into `num`.
+    fn merge(&mut self, plan: &[MergeCapture], rows: &[&[u32]]) {
+        let w = rows.first().map_or(0, |r| r.len());
+        let (num, reference, den) = (&mut self.num, &mut self.reference, &mut self.den);
+        num.clear();
+        num.resize(w, 0.0);
+        den.clear();
+        den.resize(w, 0.0);
+        reference.clear();
+        reference.resize(w, f64::NAN);
+        let est = |p: &MergeCapture, y: u32| (f64::from(y) - p.black) * p.inv_g;
+        // The first usable capture's estimate: the captures from last to first, each usable one
+        // replacing the reference.
+        for (p, r) in plan.iter().zip(rows).rev() {
+            for (re, &y) in reference.iter_mut().zip(r.iter()) {
+                if f64::from(y) <= p.usable_dn {
+                    *re = est(p, y).max(0.0);
+                }
+            }
+        }
+        // Inverse-variance weights of the usable captures, in capture order.
+        for (p, r) in plan.iter().zip(rows) {
+            for (((n, d), &re), &y) in num
+                .iter_mut()
+                .zip(den.iter_mut())
+                .zip(&*reference)
+                .zip(r.iter())
+            {
+                let var_dn = p.k2 * (re * p.ts + p.read_var_e2) + 1.0 / 12.0;
+                let wgt = if f64::from(y) <= p.usable_dn {
+                    p.g2 / var_dn
+                } else {
+                    0.0
+                };
+                *n += wgt * est(p, y);
+                *d += wgt;
+            }
+        }
+        let (last, r_last) = (plan.len() - 1, rows[rows.len() - 1]);
+        for ((n, &d), (&re, &y)) in num.iter_mut().zip(&*den).zip(reference.iter().zip(r_last)) {
+            *n = if re.is_nan() {
+                est(&plan[last], y).max(0.0)
+            } else {
+                *n / d
+            };
         }
     }
-    if reference.is_nan() {
-        // Everything saturated: the least sensitive capture's (clipped) value.
-        return est[plan.len() - 1].max(0.0);
-    }
-    let mut num = 0.0;
-    let mut den = 0.0;
-    for (j, p) in plan.iter().enumerate() {
-        if usable[j] {
-            let var_dn = p.k2 * (reference * p.ts + p.read_var_e2) + 1.0 / 12.0;
-            let wgt = p.g2 / var_dn;
-            num += wgt * est[j];
-            den += wgt;
-        }
-    }
-    num / den
 }
