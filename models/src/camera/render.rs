@@ -1114,8 +1114,8 @@ impl Ctx<'_> {
         s.lamp.resize(n, u32::MAX);
         let glass = GlassModel { mats: self.mats };
         for i in 0..n {
-            let Some(hit) = s.hits[i] else { continue };
-            if let Some(l) = self.lit_lamp(&hit) {
+            let Some(hit) = &s.hits[i] else { continue };
+            if let Some(l) = self.lit_lamp(hit) {
                 s.lamp[i] = l;
                 continue;
             }
@@ -1129,7 +1129,7 @@ impl Ctx<'_> {
                 if let Some(so) = optics {
                     s.refl[i] = so.reflectance as f32;
                 }
-                s.glass_first.push((i as u32, hit));
+                s.glass_first.push((i as u32, *hit));
                 // Through the pane (as `Space::closest_hit_through`, from the pane already found;
                 // τ of `GlassModel`): the rays go on in a batch below.
                 if self.frame.space.effects.transmission {
@@ -1190,11 +1190,11 @@ impl Ctx<'_> {
             let ray = s.rays[i];
             // The first surface on the ray (glass, or what the ray stopped at).
             let first = match s.glass_first.get(glass_next) {
-                Some(&(g, hit)) if g as usize == i => {
+                Some((g, hit)) if *g as usize == i => {
                     glass_next += 1;
                     Some(hit)
                 }
-                _ => s.hits[i],
+                _ => s.hits[i].as_ref(),
             };
             let smp = &mut out[i];
             smp.lamp = u32::MAX;
