@@ -810,7 +810,9 @@ def test_default_mode(model_description, kind):
 def test_physical_model_in_fmpy(kind, model_description, unzip_dir, perception_class):
     """The physical camera / radar / LiDAR model in FMPy: every step OK, SensorData decodes with the
     official bindings (no unknown fields), feature-data detections on the car ahead and none on the car
-    out of range, raw perception output in the extension, and the car ahead recognised (and tracked)."""
+    out of range, raw perception output in the extension, and the car ahead recognised (and tracked).
+    Detection is drawn per frame with the model's detection probability (≈ 0.97 for the car ahead), so
+    the car ahead must be detected in at least 6 of the 8 frames, not in every one."""
     if kind not in PHYSICAL_KINDS:
         pytest.skip(f"no physical {kind} model yet")
     slave = OsmpSlave(model_description, unzip_dir, f"{kind}_physical")
@@ -821,6 +823,7 @@ def test_physical_model_in_fmpy(kind, model_description, unzip_dir, perception_c
         scene = Scene(request, range_m)
         h = float(model_description.defaultExperiment.stepSize)
         tracked = False
+        detected, recognised = 0, 0
         for k in range(8):
             t = k * h
             # The car ahead recedes at 3 m/s: a radar tracker confirms moving targets (parked cars
@@ -835,7 +838,7 @@ def test_physical_model_in_fmpy(kind, model_description, unzip_dir, perception_c
             assert_no_unknown_fields(data)
             assert data.timestamp == view.timestamp
             ids = detection_object_ids(kind, data, scene)
-            assert FRONT_ID in ids, f"t={t}: no {kind} detection on the car ahead: {sorted(set(ids))[:20]}"
+            detected += FRONT_ID in ids
             assert FAR_ID not in ids, f"t={t}: {kind} detection on the car beyond the range"
             # (No assertion on the "hidden" car: it is hidden behind the front car's box, but the
             # car mesh is not a box, and the LiDAR sees parts of it past the front car's roof.)
@@ -843,7 +846,7 @@ def test_physical_model_in_fmpy(kind, model_description, unzip_dir, perception_c
             assert p.model_mode == "physical"
             if kind == "camera":
                 assert p.camera.image and all(img.width_px > 0 and img.data for img in p.camera.image)
-                assert any(o.object_id == FRONT_ID and o.type_code == 2 for o in p.camera.object)
+                recognised += any(o.object_id == FRONT_ID and o.type_code == 2 for o in p.camera.object)
             elif kind == "lidar":
                 n = len(p.lidar.x_m)
                 assert n > 100 and len(p.lidar.intensity) == n and len(p.lidar.timestamp_ns) == n
@@ -854,6 +857,9 @@ def test_physical_model_in_fmpy(kind, model_description, unzip_dir, perception_c
             gt_ids = {g.value for o in data.moving_object for g in o.header.ground_truth_id}
             tracked = tracked or FRONT_ID in gt_ids
             assert HOST_ID not in gt_ids
+        assert detected >= 6, f"{kind}: the car ahead detected in {detected} of 8 frames"
+        if kind == "camera":
+            assert recognised >= 6, f"camera: the car ahead recognised in {recognised} of 8 frames"
         assert tracked, f"the car ahead was never reported as a tracked object\n{slave.log_tail()}"
     finally:
         slave.free()
