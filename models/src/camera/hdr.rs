@@ -537,9 +537,11 @@ impl<'a> Pwl<'a> {
 /// capture is saturated, the least sensitive capture's (clipped) value.
 #[derive(Default)]
 struct MergeRow {
-    /// The reference estimate per pixel (NaN: no usable capture); then the result.
+    /// Σ w·Ê per pixel; after [`MergeRow::merge`], the merged Ê.
     num: Vec<f64>,
+    /// The first usable capture's estimate per pixel (NaN: no usable capture).
     reference: Vec<f64>,
+    /// Σ w per pixel.
     den: Vec<f64>,
 }
 

@@ -3,7 +3,6 @@
 use glam::{DVec3, Vec3A};
 use obvhs::bvh2::Bvh2;
 use obvhs::ray::RayHit;
-use rayon::prelude::*;
 
 use super::accel::{Instance, Space};
 #[cfg(target_arch = "x86_64")]
@@ -13,10 +12,6 @@ use super::traverse::traverse;
 use super::{Hit, Ray};
 use crate::environment::material::MaterialId;
 use glam::Vec4;
-
-/// Rays per rayon task in the batch queries (large enough to amortise scheduling, small enough to
-/// balance 2–16 threads on a LiDAR frame; consecutive rays stay on one thread, keeping coherence).
-pub(crate) const CHUNK: usize = 512;
 
 /// Instance index of a static-world hit.
 const STATIC: u32 = u32::MAX;
@@ -467,18 +462,14 @@ impl Space {
     /// The closest surface on the ray within `[t_min, t_max]`.
     #[inline]
     pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
-        let mut out = [None];
-        self.trace_chunk(self.top(), std::slice::from_ref(ray), &mut out);
-        out[0]
+        self.at_poses().closest_hit(ray)
     }
 
     /// Whether any surface lies on the ray within `[t_min, t_max]` (occlusion, shadow rays; stops at the
     /// first surface found, so it is cheaper than [`Space::closest_hit`]).
     #[inline]
     pub fn any_hit(&self, ray: &Ray) -> bool {
-        let mut out = [false];
-        self.occluded_chunk(self.top(), std::slice::from_ref(ray), &mut out);
-        out[0]
+        self.at_poses().any_hit(ray)
     }
 
     /// Closest hits of a run of rays through `top`, with the traversal compiled for AVX2 + FMA
@@ -623,17 +614,7 @@ impl Space {
     /// consecutive rays with a common origin and directions within ≈ 8° (LiDAR columns, camera rows)
     /// are traced as SIMD packets: issue coherent rays next to each other. Panics if the lengths differ.
     pub fn trace_batch(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
-        assert_eq!(
-            rays.len(),
-            out.len(),
-            "trace_batch: {} rays but {} outputs",
-            rays.len(),
-            out.len()
-        );
-        let top = self.top();
-        rays.par_chunks(CHUNK)
-            .zip(out.par_chunks_mut(CHUNK))
-            .for_each(|(rays, out)| self.trace_chunk(top, rays, out));
+        self.at_poses().trace_batch(rays, out)
     }
 
     /// [`Space::trace_batch`] into a new vector.
@@ -647,17 +628,7 @@ impl Space {
     /// consecutive rays with directions within ≈ 8° and origins within 0.5 m (a LiDAR column, the
     /// sun shadow rays of neighbouring pixels) are traced as SIMD packets.
     pub fn occluded_batch(&self, rays: &[Ray], out: &mut [bool]) {
-        assert_eq!(
-            rays.len(),
-            out.len(),
-            "occluded_batch: {} rays but {} outputs",
-            rays.len(),
-            out.len()
-        );
-        let top = self.top();
-        rays.par_chunks(CHUNK)
-            .zip(out.par_chunks_mut(CHUNK))
-            .for_each(|(rays, out)| self.occluded_chunk(top, rays, out));
+        self.at_poses().occluded_batch(rays, out)
     }
 
     /// The closest surface that stops the ray, passing through up to `max_crossings` transmissive

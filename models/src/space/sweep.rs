@@ -17,9 +17,13 @@ use obvhs::ploc::PlocBuilder;
 use rayon::prelude::*;
 
 use super::accel::{Space, build_tlas, swept_aabb};
-use super::query::{CHUNK, Top};
+use super::query::Top;
 use super::traverse;
 use super::{Hit, Ray};
+
+/// Rays per rayon task in the batch queries (large enough to amortise scheduling, small enough to
+/// balance 2–16 threads on a LiDAR frame; consecutive rays stay on one thread, keeping coherence).
+const CHUNK: usize = 512;
 
 /// The swept top level of a space's instances (see the module documentation). Plan once, update
 /// per window: [`Sweep::update`] rebuilds it for the space's current instances and returns the
@@ -48,10 +52,7 @@ impl Sweep {
         let window = (a.min(b), a.max(b));
         let moving = space.instances.iter().any(|i| i.moving);
         if !moving || window.0 == window.1 && window.0 == 0.0 {
-            return Swept {
-                space,
-                top: space.top(),
-            };
+            return space.at_poses();
         }
         self.aabbs.clear();
         self.aabbs.extend(space.instances.iter().map(|i| {
@@ -76,11 +77,22 @@ impl Sweep {
 
 /// A [`Space`] whose queries see each moving instance at the ray's time ([`Ray::time_s`], within
 /// the window of the [`Sweep`] that made it). Same queries, packets and results per ray as the
-/// space's own, which it equals for rays at time 0.
+/// space's own, which it equals for rays at time 0 (the space's own queries are this view over
+/// its own top level, [`Space::at_poses`]).
 #[derive(Clone, Copy)]
 pub struct Swept<'a> {
     space: &'a Space,
     top: Top<'a>,
+}
+
+impl Space {
+    /// The space with its instances at their poses (its own top level; ray times ignored).
+    pub(crate) fn at_poses(&self) -> Swept<'_> {
+        Swept {
+            space: self,
+            top: self.top(),
+        }
+    }
 }
 
 impl Swept<'_> {
