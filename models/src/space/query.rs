@@ -156,6 +156,17 @@ fn mesh_ray(inst: &Instance, r: &obvhs::ray::Ray, dt: f32) -> obvhs::ray::Ray {
     obvhs_ray(o, d, r.tmin, r.tmax)
 }
 
+/// [`mesh_ray`] for a packet: lane `l` displaced by `dt` lane `l` where `timed`.
+#[inline(always)]
+fn mesh_packet<V: Lanes>(inst: &Instance, p: &Packet<V>, timed: bool, dt: V) -> Packet<V> {
+    if timed && inst.moving {
+        p.shifted(inst.velocity, dt)
+            .transformed(&inst.scene_to_mesh)
+    } else {
+        p.transformed(&inst.scene_to_mesh)
+    }
+}
+
 /// The top level a query traverses: the space's own (instances at their poses) or a
 /// [`super::Sweep`]'s (boxes swept over a time window; each ray sees the instances displaced by
 /// `v·time` at its own time).
@@ -285,12 +296,7 @@ impl Space {
                     for q in first..first + count {
                         let i = top.tlas.primitive_indices[q as usize];
                         let inst = &self.instances[i as usize];
-                        let mut local = if timed && inst.moving {
-                            p.shifted(inst.velocity, dt)
-                                .transformed(&inst.scene_to_mesh)
-                        } else {
-                            p.transformed(&inst.scene_to_mesh)
-                        };
+                        let mut local = mesh_packet(inst, p, timed, dt);
                         let mut local_prim = none;
                         self.meshes[inst.desc.mesh.0 as usize]
                             .closest_packet(&mut local, &mut local_prim);
@@ -379,12 +385,7 @@ impl Space {
                 |first, count, p| {
                     for q in first..first + count {
                         let inst = &self.instances[top.tlas.primitive_indices[q as usize] as usize];
-                        let mut local = if timed && inst.moving {
-                            p.shifted(inst.velocity, dt)
-                                .transformed(&inst.scene_to_mesh)
-                        } else {
-                            p.transformed(&inst.scene_to_mesh)
-                        };
+                        let mut local = mesh_packet(inst, p, timed, dt);
                         let hit =
                             self.meshes[inst.desc.mesh.0 as usize].occluded_packet(&mut local);
                         for l in 0..N {
