@@ -15,20 +15,21 @@ use osiris::trace::{OsiTraceReader, OsiTraceWriter, read_messages};
 use osiris_models::SensorKind;
 use osiris_proto::{Message, osi3, perception};
 
-/// The three FMUs, packaged once per test process (libraries of the test profile, built if needed).
+/// The three FMUs, packaged once per test process (libraries of the test profile, built if needed)
+/// into cargo's per-target scratch folder, which the next run overwrites (a static temporary folder
+/// would never be removed: statics are not dropped).
 fn fmu_dir() -> &'static Path {
-    static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
-        let dir = tempfile::tempdir().unwrap();
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli-fmus");
         let opts = PackageOptions {
-            out_dir: dir.path().to_path_buf(),
+            out_dir: dir.clone(),
             ..PackageOptions::default()
         };
         let written = package(&opts).unwrap_or_else(|e| panic!("packaging failed: {e}"));
         assert_eq!(written.len(), 3);
         dir
     })
-    .path()
 }
 
 fn run_cli(args: &[&str]) -> anyhow::Result<()> {
@@ -424,5 +425,24 @@ fn readme_lists_every_named_effect() {
             e.name
         );
     }
-    run_cli(&["effects", "--json"]).unwrap();
+    // `osiris effects --json` lists the same catalogue as JSON (run as a process: its output stays
+    // out of the test log).
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_osiris"))
+        .args(["effects", "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let listed: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    let names: BTreeSet<&str> = listed.iter().filter_map(|e| e["name"].as_str()).collect();
+    for e in osiris_models::effects::catalogue() {
+        assert!(
+            names.contains(e.name),
+            "`osiris effects --json` lacks {}",
+            e.name
+        );
+    }
 }
