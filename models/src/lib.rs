@@ -10,8 +10,10 @@
 //! * [`world`]: the per-step world of a physical model (scene, space, sensor pose, weather).
 //! * [`lidar`], [`radar`]: the physical sensor models.
 //! * [`recognition`]: detected objects from raw perception output, with tracking.
+//! * [`cpu`]: run-time choice of the SIMD kernels (`OSIRIS_SIMD=portable` forces the portable ones).
 
 pub mod camera;
+pub mod cpu;
 pub mod effects;
 pub mod environment;
 pub mod frames;

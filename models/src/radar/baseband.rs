@@ -857,7 +857,7 @@ impl RadarChain {
         let (m_grid, corr, grid_fft) = (this.nufft_m, &this.nufft_corr[..], this.fft_grid.clone());
         let (spread_base, spread_w) = (&this.spread_base[..], &this.spread_w[..]);
         let scratch_len = scratch_len.max(grid_fft.get_inplace_scratch_len());
-        let simd = simd_available();
+        let simd = crate::cpu::avx2_fma();
         cube_re
             .par_chunks_mut(chunk)
             .zip(cube_im.par_chunks_mut(chunk))
@@ -1828,18 +1828,6 @@ fn es_kernel_transform(xi: f64, beta: f64) -> f64 {
         s += if i % 2 == 1 { 4.0 } else { 2.0 } * f(z);
     }
     s * h / 3.0
-}
-
-/// Whether the AVX2 + FMA build of the spreading loop can run.
-fn simd_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
 }
 
 /// Spread one cell's path coefficients `C_p = slot_p · ck_p` (`f = [slot_re, slot_im, ck_re,

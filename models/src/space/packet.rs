@@ -129,7 +129,7 @@ pub(crate) struct Avx8Mask(std::arch::x86_64::__m256);
 #[cfg(target_arch = "x86_64")]
 mod avx8 {
     // SAFETY (every `unsafe` block below): `Avx8` values exist only on paths that checked for
-    // AVX2 at run time (`query::avx2_fma`); the intrinsics need AVX.
+    // AVX2 at run time (`crate::cpu::avx2_fma`); the intrinsics need AVX.
     use super::{Avx8, Avx8Mask, Lanes};
     use std::arch::x86_64::*;
 

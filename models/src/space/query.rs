@@ -117,13 +117,6 @@ fn lane_times<V: Lanes, const N: usize>(top: Top<'_>, rays: &[Ray; N]) -> V {
     }
 }
 
-/// Whether the CPU has AVX2 and FMA (cached by std after the first call).
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn avx2_fma() -> bool {
-    std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
-}
-
 /// An obvhs ray. Direction components of −0.0 are turned into +0.0 (`x + 0.0`): the CWBVH node test
 /// picks slab sides from `direction < 0` but divides by the signed zero (1/−0 < 0), which would
 /// miss every node along axis-parallel directions.
@@ -529,7 +522,7 @@ impl Space {
             fn avx2(space: &Space, top: Top<'_>, rays: &[Ray], out: &mut [Option<Hit>]) {
                 body::<true>(space, top, rays, out)
             }
-            if avx2_fma() {
+            if crate::cpu::avx2_fma() {
                 // SAFETY: the CPU supports AVX2 and FMA (checked at run time just above).
                 return unsafe { avx2(self, top, rays, out) };
             }
@@ -580,7 +573,7 @@ impl Space {
             fn avx2(space: &Space, top: Top<'_>, rays: &[Ray], out: &mut [bool]) {
                 body::<true>(space, top, rays, out)
             }
-            if avx2_fma() {
+            if crate::cpu::avx2_fma() {
                 // SAFETY: the CPU supports AVX2 and FMA (checked at run time just above).
                 return unsafe { avx2(self, top, rays, out) };
             }
