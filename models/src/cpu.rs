@@ -3,7 +3,7 @@
 //! The 8-lane AVX2 + FMA kernels run where the CPU has both features; elsewhere the portable code
 //! (4-lane packets of plain `f32` arithmetic, scalar spreading) computes the same quantities. The
 //! environment variable `OSIRIS_SIMD=portable` forces the portable code on any CPU: to check that
-//! both give the same results (`.ci/run` runs the space, LiDAR and radar tests that way) or to rule
+//! both give the same results (`.ci/run` runs every osiris-models test binary that way) or to rule
 //! the SIMD kernels out when chasing a difference. It is read once per process.
 
 use std::sync::OnceLock;
