@@ -219,6 +219,25 @@ pub struct RunArgs {
 }
 
 /// Run the command line.
+/// Exit status of a consistency verdict that fails (a tolerance fails, status not EXPLAINED).
+pub const EXIT_VERDICT: u8 = 1;
+/// Exit status of a usage, input or I/O error (the message names the file, key or value).
+pub const EXIT_ERROR: u8 = 2;
+/// Exit status of an internal error (a panic: a bug).
+pub const EXIT_INTERNAL: u8 = 3;
+
+/// The exit status of an error returned by [`main_with`]: [`EXIT_VERDICT`] for a failed
+/// consistency verdict, [`EXIT_ERROR`] for every other error.
+pub fn exit_code(e: &anyhow::Error) -> u8 {
+    if e.chain()
+        .any(|c| c.is::<crate::consistency::cli::VerdictFailed>())
+    {
+        EXIT_VERDICT
+    } else {
+        EXIT_ERROR
+    }
+}
+
 pub fn main_with(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Run(args) => run(args),

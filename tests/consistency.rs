@@ -130,14 +130,14 @@ fn divp_radar_r2_bug_is_found_as_the_spreading_exponent() {
     assert_eq!(s.status, "EXPLAINED", "{}", describe(&s));
     assert_eq!(
         s.accepted(),
-        vec!["radar.spreading_exponent".to_string()],
+        vec!["radar.two_way_spreading".to_string()],
         "{}",
         describe(&s)
     );
-    let p0 = param(&s, "radar.spreading_exponent");
+    let p0 = param(&s, "radar.two_way_spreading");
     assert!((p0 - 2.0).abs() < 0.1, "exponent {p0}\n{}", describe(&s));
     assert!(
-        s.effect("radar.spreading_exponent")
+        s.effect("radar.two_way_spreading")
             .unwrap()
             .tie_group
             .is_none(),
@@ -193,7 +193,7 @@ fn stc_inside_its_knee_ties_with_spreading_until_the_design_reaches_beyond_it() 
         .iter()
         .find(|t| Some(&t.id) == e.tie_group.as_ref())
         .unwrap_or_else(|| panic!("the accepted effect has no tie group\n{}", describe(&s)));
-    for m in ["radar.spreading_exponent", "radar.stc_range_gain"] {
+    for m in ["radar.two_way_spreading", "radar.stc_range_gain"] {
         assert!(tie.members.iter().any(|x| x == m), "{}", describe(&s));
     }
     assert!(tie.discriminating_experiment.contains("STC knee"));
@@ -235,13 +235,13 @@ fn divp_spreading_bug_inside_the_stc_knee_is_not_a_tie_when_stc_cannot_fit_its_s
     let s = radar(dir.path(), spec);
     assert_eq!(
         s.accepted(),
-        vec!["radar.spreading_exponent".to_string()],
+        vec!["radar.two_way_spreading".to_string()],
         "{}",
         describe(&s)
     );
-    assert!((param(&s, "radar.spreading_exponent") - 2.0).abs() < 0.15);
+    assert!((param(&s, "radar.two_way_spreading") - 2.0).abs() < 0.15);
     assert!(
-        s.effect("radar.spreading_exponent")
+        s.effect("radar.two_way_spreading")
             .unwrap()
             .tie_group
             .is_none(),
@@ -389,7 +389,7 @@ fn itu_77ghz_db_per_km(rain_mm_h: f64) -> f64 {
 }
 
 /// A stand-in for the physical radar model: replays the campaign's model trace and, when the
-/// configuration switches `env.rain_extinction` on, applies the two-way rain loss to its RCS.
+/// configuration switches `radar.rain_attenuation` on, applies the two-way rain loss to its RCS.
 fn stand_in(
     model_trace: &Path,
 ) -> impl FnMut(
@@ -407,7 +407,7 @@ fn stand_in(
         let rain = cfg.weather.as_ref().map(|w| w.rain_mm_h).unwrap_or(0.0);
         let on = cfg
             .effects
-            .get("env.rain_extinction")
+            .get("radar.rain_attenuation")
             .copied()
             .unwrap_or(true);
         let mut out = trace.clone();
@@ -440,20 +440,20 @@ fn closed_loop_enabling_the_identified_effect_makes_the_error_fall() {
     let mut sim = stand_in(&files.simulated);
     // Iteration 1: the model without rain extinction.
     let mut a = args(&files, &dir.path().join("run1"), false);
-    a.disable = vec!["env.rain_extinction".into()];
+    a.disable = vec!["radar.rain_attenuation".into()];
     a.history = Some(history.clone());
     let before = cli::run_with(&a, Some(&mut sim)).unwrap();
     eprintln!("{}", describe(&before));
     let rain = before.effect("radar.rain_attenuation").unwrap();
     assert!(rain.accepted, "{}", describe(&before));
-    assert_eq!(rain.model_switch.as_deref(), Some("env.rain_extinction"));
+    assert_eq!(rain.model_switch.as_deref(), Some("radar.rain_attenuation"));
     // ITU-R P.838-3: 11.4 dB/km one-way at 25 mm/h.
     let g = rain.params[0].value;
     assert!((g - itu_77ghz_db_per_km(25.0)).abs() < 2.0, "γ {g}");
     assert!(before.history.is_empty());
     // Iteration 2: enable the switch the catalogue names; the held-out error falls.
     let mut a2 = args(&files, &dir.path().join("run2"), false);
-    a2.enable = vec!["env.rain_extinction".into()];
+    a2.enable = vec!["radar.rain_attenuation".into()];
     a2.history = Some(history.clone());
     let after = cli::run_with(&a2, Some(&mut sim)).unwrap();
     eprintln!("{}", describe(&after));
@@ -474,7 +474,7 @@ fn closed_loop_enabling_the_identified_effect_makes_the_error_fall() {
     assert_eq!(after.history.len(), 1);
     assert_eq!(
         after.history[0].disabled,
-        vec!["env.rain_extinction".to_string()]
+        vec!["radar.rain_attenuation".to_string()]
     );
     assert!(
         after.history[0]
@@ -550,7 +550,7 @@ fn resimulation_with_the_physical_radar_model() {
     };
     let files = write_radar(&dir.path().join("campaign"), &spec).unwrap();
     let mut off = args(&files, &dir.path().join("off"), false);
-    off.disable = vec!["env.rain_extinction".into()];
+    off.disable = vec!["radar.rain_attenuation".into()];
     let before = match cli::run_with(&off, None) {
         Ok(s) => s,
         Err(e) if format!("{e:#}").contains("not available") => {
@@ -560,7 +560,7 @@ fn resimulation_with_the_physical_radar_model() {
         Err(e) => panic!("re-simulation failed: {e:#}"),
     };
     let mut on = args(&files, &dir.path().join("on"), false);
-    on.enable = vec!["env.rain_extinction".into()];
+    on.enable = vec!["radar.rain_attenuation".into()];
     let after = cli::run_with(&on, None).unwrap();
     assert!(before.pairing.rows > 0 && after.pairing.rows > 0);
     let (b, c) = (before.error["power_db"], after.error["power_db"]);
@@ -635,7 +635,7 @@ fn hidden_effect_protocol_over_seeds() {
             "r2",
             vec![RadarHidden::ModelSpreadingR2],
             far.clone(),
-            "radar.spreading_exponent",
+            "radar.two_way_spreading",
         ),
         (
             "area1",
@@ -664,7 +664,7 @@ fn hidden_effect_protocol_over_seeds() {
                 RadarHidden::Rain { rain_mm_h: 25.0 },
             ],
             (0..11).map(|i| 3.0 + 14.0 * f64::from(i)).collect(),
-            "radar.rain_attenuation+radar.spreading_exponent",
+            "radar.rain_attenuation+radar.two_way_spreading",
         ),
         (
             "stc",

@@ -68,7 +68,7 @@ fn registration_validates_and_install_is_scoped() {
     let n = c.effects.len();
     // Duplicate id.
     let dup = Effect::from_signature(
-        "radar.spreading_exponent",
+        "radar.two_way_spreading",
         "power_db",
         "p0*range",
         &[],
@@ -76,7 +76,7 @@ fn registration_validates_and_install_is_scoped() {
     )
     .unwrap();
     let err = c.register(Box::new(dup)).unwrap_err().to_string();
-    assert!(err.contains("radar.spreading_exponent"), "{err}");
+    assert!(err.contains("radar.two_way_spreading"), "{err}");
     // Three parameters, bad bounds, nominal outside, unknown variable: errors naming the effect.
     let three = (0..3)
         .map(|i| Param::new(&format!("p{i}"), [0.0, 1.0], 0.5))

@@ -148,6 +148,18 @@ pub fn aggregate(rows: &[Row], q: &str, campaign: &Campaign) -> (Vec<Obs>, Noise
             x,
         });
     }
+    // Folds that can identify what they test: leave-one-target-out only where every fold keeps at
+    // least two distinct values of each target-level variable that varies (a size law fitted on one
+    // size cannot tell itself from the calibration offset); otherwise stations are the groups, so
+    // every fold trains on every target.
+    if campaign.split.cv_group_by.iter().all(|g| g == "target")
+        && obs.iter().any(|o| o.target != 0)
+        && !target_folds_identify(&obs)
+    {
+        for o in &mut obs {
+            o.group = o.station;
+        }
+    }
     let noise = NoiseModel {
         pooled_sd,
         dof,
@@ -159,6 +171,31 @@ pub fn aggregate(rows: &[Row], q: &str, campaign: &Campaign) -> (Vec<Obs>, Noise
         inflation: 1.0,
     };
     (obs, noise)
+}
+
+/// Whether leave-one-target-out folds keep, in every fold, two or more distinct values of each
+/// target-level variable that varies across the targets (and two or more targets at all).
+fn target_folds_identify(obs: &[Obs]) -> bool {
+    let mut targets: BTreeMap<u64, [f64; NVARS]> = BTreeMap::new();
+    for o in obs {
+        targets.entry(o.target).or_insert(o.x);
+    }
+    if targets.len() < 3 {
+        return false;
+    }
+    super::cli::TARGET_VARS.iter().all(|&v| {
+        let distinct = |skip: Option<u64>| {
+            let mut vals: Vec<f64> = targets
+                .iter()
+                .filter(|(t, _)| Some(**t) != skip)
+                .map(|(_, x)| x[v])
+                .collect();
+            vals.sort_by(f64::total_cmp);
+            vals.dedup_by(|a, b| (*a - *b).abs() <= 1e-6 * b.abs().max(1e-9));
+            vals.len()
+        };
+        distinct(None) < 2 || targets.keys().all(|&t| distinct(Some(t)) >= 2)
+    })
 }
 
 /// A fitted set of effects.

@@ -198,7 +198,7 @@ mod tests {
             .iter()
             .map(|a| a.as_str().unwrap())
             .collect();
-        assert!(acc.contains(&"radar.spreading_exponent"), "{v}");
+        assert!(acc.contains(&"radar.two_way_spreading"), "{v}");
         assert!(acc.contains(&"radar.antenna_pattern"), "{v}");
     }
 }

@@ -1,7 +1,14 @@
 //! Effect catalogues (validation.md §4): one versioned TOML per sensor
 //! (`models/resources/consistency/{radar,lidar}.toml`), each entry a residual signature with 0–2
-//! bounded parameters, its explanatory variables, the osiris effect switch that adds the physics to
-//! the model, the effects it can be confused with and the experiment that separates them.
+//! bounded parameters, its explanatory variables, its [`EffectKind`] (an osiris model effect of the
+//! same name, physics the model lacks, or a property of the measurement), the effects it can be
+//! confused with and the experiment that separates them.
+//!
+//! # One name per effect
+//! A catalogue id of kind [`EffectKind::Model`] *is* the model's switch: `osiris consistency
+//! --enable <id>` and `osiris effects` use the same string ([`validate`] rejects a model-kind id the
+//! models do not declare). One effect that changes several quantities has one entry per quantity
+//! under the same id.
 //!
 //! # Adding an effect
 //! Every entry implements [`EffectSignature`]: the TOML entries are one implementation
@@ -29,6 +36,47 @@ pub const CAMERA_TOML: &str = include_str!("../../models/resources/consistency/c
 /// Most parameters an effect may have (validation.md §4: 0–2 bounded parameters keep the
 /// forward selection identifiable and fast).
 pub const MAX_PARAMS: usize = 2;
+
+/// What a catalogue id stands for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EffectKind {
+    /// An osiris model effect of the same name: switch it with `--enable <id>` / `--disable <id>`.
+    Model,
+    /// Physics the model lacks: the report says "add this effect".
+    MissingPhysics,
+    /// A property of the measurement or its processing (not sensor physics to add to the model).
+    Measurement,
+}
+
+impl EffectKind {
+    /// The TOML spelling.
+    pub fn name(self) -> &'static str {
+        match self {
+            EffectKind::Model => "model",
+            EffectKind::MissingPhysics => "missing_physics",
+            EffectKind::Measurement => "measurement",
+        }
+    }
+
+    /// Parses the TOML spelling.
+    pub fn parse(s: &str) -> Option<EffectKind> {
+        [
+            EffectKind::Model,
+            EffectKind::MissingPhysics,
+            EffectKind::Measurement,
+        ]
+        .into_iter()
+        .find(|k| k.name() == s)
+    }
+}
+
+/// Whether `id` is an osiris model effect (`osiris effects`).
+pub fn is_model_effect(id: &str) -> bool {
+    osiris_models::effects::catalogue()
+        .iter()
+        .any(|e| e.name == id)
+}
 
 /// A bounded parameter.
 #[derive(Debug, Clone, Serialize)]
@@ -79,9 +127,13 @@ pub trait EffectSignature: Send + Sync {
     fn signature(&self) -> &str {
         ""
     }
-    /// The osiris effect switch that adds the physics to the model (None = not implemented yet).
+    /// What the id stands for; a user's effect is physics the model lacks unless it says otherwise.
+    fn kind(&self) -> EffectKind {
+        EffectKind::MissingPhysics
+    }
+    /// The osiris model switch of this effect: its own id when it is a model effect, else None.
     fn model_switch(&self) -> Option<&str> {
-        None
+        (self.kind() == EffectKind::Model).then(|| self.id())
     }
     /// Effects with a similar signature on typical designs.
     fn confusable_with(&self) -> &[String] {
@@ -129,6 +181,12 @@ pub fn validate(e: &dyn EffectSignature) -> Result<()> {
             );
         }
     }
+    if e.kind() == EffectKind::Model && !is_model_effect(id) {
+        bail!(
+            "catalogue effect `{id}`: kind = \"model\" but the models declare no effect `{id}` \
+             (`osiris effects` lists them); use kind = \"missing_physics\" for physics the model lacks"
+        );
+    }
     for v in e.explanatory() {
         if !VAR_NAMES.contains(&v.as_str()) {
             bail!(
@@ -154,8 +212,8 @@ pub struct Effect {
     #[serde(skip)]
     pub program: Program,
     pub params: Vec<Param>,
-    /// osiris effect switch that adds the physics to the model (None = not implemented yet).
-    pub model_switch: Option<String>,
+    /// What the id stands for (a model effect of that name, missing physics, the measurement).
+    pub kind: EffectKind,
     pub confusable_with: Vec<String>,
     pub discriminating_experiment: String,
     pub physics: String,
@@ -189,7 +247,7 @@ impl Effect {
             program: Program::compile(&expr),
             expr,
             params,
-            model_switch: None,
+            kind: EffectKind::MissingPhysics,
             confusable_with: Vec::new(),
             discriminating_experiment: String::new(),
             physics: String::new(),
@@ -231,8 +289,8 @@ impl EffectSignature for Effect {
     fn signature(&self) -> &str {
         &self.signature
     }
-    fn model_switch(&self) -> Option<&str> {
-        self.model_switch.as_deref()
+    fn kind(&self) -> EffectKind {
+        self.kind
     }
     fn confusable_with(&self) -> &[String] {
         &self.confusable_with
@@ -254,6 +312,8 @@ pub struct EffectDoc {
     pub explanatory: Vec<String>,
     pub signature: String,
     pub params: Vec<Param>,
+    pub kind: EffectKind,
+    /// The model switch (the id itself) when `kind` is `model`.
     pub model_switch: Option<String>,
     pub confusable_with: Vec<String>,
     pub discriminating_experiment: String,
@@ -270,6 +330,7 @@ impl EffectDoc {
             explanatory: e.explanatory().to_vec(),
             signature: e.signature().to_owned(),
             params: e.params().to_vec(),
+            kind: e.kind(),
             model_switch: e.model_switch().map(str::to_owned),
             confusable_with: e.confusable_with().to_vec(),
             discriminating_experiment: e.discriminating_experiment().to_owned(),
@@ -365,10 +426,11 @@ impl Catalogue {
     /// attribution of its quantity like a built-in one.
     pub fn register(&mut self, effect: Box<dyn EffectSignature>) -> Result<()> {
         validate(effect.as_ref())?;
-        if self.get(effect.id()).is_some() {
+        if self.get_for(effect.id(), effect.quantity()).is_some() {
             bail!(
-                "catalogue: effect `{}` is already in the {} catalogue",
+                "catalogue: effect `{}` on `{}` is already in the {} catalogue",
                 effect.id(),
+                effect.quantity(),
                 self.sensor
             );
         }
@@ -376,7 +438,15 @@ impl Catalogue {
         Ok(())
     }
 
-    /// The effect of an id.
+    /// The entry of an id on one quantity.
+    pub fn get_for(&self, id: &str, quantity: &str) -> Option<&dyn EffectSignature> {
+        self.effects
+            .iter()
+            .find(|e| e.id() == id && e.quantity() == quantity)
+            .map(|e| e.as_ref())
+    }
+
+    /// The (first) entry of an id.
     pub fn get(&self, id: &str) -> Option<&dyn EffectSignature> {
         self.effects
             .iter()
@@ -484,7 +554,20 @@ impl Catalogue {
             let signature = s(get(&t, "signature"), "signature")?;
             let names: Vec<String> = params.iter().map(|p| p.name.clone()).collect();
             let expr = Expr::parse(&signature, &VAR_NAMES, &consts, &names).with_context(ctx)?;
-            let model_switch = s(get(&t, "model_switch"), "model_switch")?;
+            if get(&t, "model_switch").is_some() {
+                bail!(
+                    "{}: `model_switch` is gone: the id is the model's switch name; say `kind = \"model\"`, \
+                     `\"missing_physics\"` or `\"measurement\"`",
+                    ctx()
+                );
+            }
+            let kind_s = s(get(&t, "kind"), "kind")?;
+            let kind = EffectKind::parse(&kind_s).ok_or_else(|| {
+                anyhow!(
+                    "{}: `kind` = `{kind_s}`: expected \"model\", \"missing_physics\" or \"measurement\"",
+                    ctx()
+                )
+            })?;
             let effect = Effect {
                 layer: strs(get(&t, "layer"), "layer")?,
                 quantity: s(get(&t, "quantity"), "quantity")?,
@@ -493,7 +576,7 @@ impl Catalogue {
                 program: Program::compile(&expr),
                 expr,
                 params,
-                model_switch: (!model_switch.is_empty()).then_some(model_switch),
+                kind,
                 confusable_with: strs(get(&t, "confusable_with"), "confusable_with")?,
                 discriminating_experiment: s(
                     get(&t, "discriminating_experiment"),
@@ -503,8 +586,15 @@ impl Catalogue {
                 id,
             };
             validate(&effect)?;
-            if effects.iter().any(|e| e.id() == effect.id) {
-                bail!("catalogue: duplicate effect id `{}`", effect.id);
+            if effects
+                .iter()
+                .any(|e| e.id() == effect.id && e.quantity() == effect.quantity)
+            {
+                bail!(
+                    "catalogue: effect `{}` on `{}` is declared twice",
+                    effect.id,
+                    effect.quantity
+                );
             }
             effects.push(Arc::new(effect));
         }
@@ -521,26 +611,96 @@ mod tests {
     use super::*;
 
     #[test]
-    fn builtin_catalogues_parse_and_model_switches_exist() {
+    fn catalogue_ids_are_the_model_effect_names() {
+        // The two lists held together: a catalogue id names a model effect exactly when it says
+        // kind = "model"; anything else is marked as missing physics or a measurement property.
         let known: Vec<&str> = osiris_models::effects::catalogue()
             .iter()
             .map(|e| e.name)
             .collect();
-        for kind in [CampaignSensor::Radar, CampaignSensor::Lidar] {
+        let mut linked = 0;
+        for kind in [
+            CampaignSensor::Radar,
+            CampaignSensor::Lidar,
+            CampaignSensor::Camera,
+        ] {
             let c = Catalogue::builtin(kind).unwrap();
             assert!(c.effects.len() >= 7);
             for e in &c.effects {
-                if let Some(s) = e.model_switch() {
-                    assert!(known.contains(&s), "{}: unknown model switch {s}", e.id());
+                let in_model = known.contains(&e.id());
+                match e.kind() {
+                    EffectKind::Model => {
+                        assert!(in_model, "{}: kind model, but no such model effect", e.id());
+                        assert_eq!(e.model_switch(), Some(e.id()));
+                        linked += 1;
+                    }
+                    k => {
+                        assert!(
+                            !in_model,
+                            "{}: the model has this effect, but the catalogue marks it {}",
+                            e.id(),
+                            k.name()
+                        );
+                        assert_eq!(e.model_switch(), None);
+                    }
                 }
                 for other in e.confusable_with() {
                     assert!(c.get(other).is_some(), "{}: {other}", e.id());
                 }
             }
         }
-        // DIVP signature: R⁻² instead of R⁻⁴ is −20 dB per decade with p0 = 2.
+        assert!(linked >= 20, "{linked} linked entries");
+        // The names the issue found unlinked are linked now.
+        let radar = Catalogue::builtin(CampaignSensor::Radar).unwrap();
+        let lidar = Catalogue::builtin(CampaignSensor::Lidar).unwrap();
+        for id in [
+            "radar.two_way_spreading",
+            "radar.ground_multipath",
+            "radar.rcs_area_scaling",
+            "radar.receiver_compression",
+            "radar.rain_attenuation",
+        ] {
+            assert_eq!(radar.get(id).unwrap().kind(), EffectKind::Model, "{id}");
+        }
+        for id in [
+            "lidar.detector_saturation",
+            "lidar.dropped_rays",
+            "lidar.range_walk",
+            "lidar.overlap_function",
+            "lidar.vertical_divergence",
+            "lidar.mixed_pixels",
+            "lidar.fog_extinction",
+        ] {
+            assert_eq!(lidar.get(id).unwrap().kind(), EffectKind::Model, "{id}");
+        }
+    }
+
+    #[test]
+    fn a_model_kind_needs_a_model_effect_and_model_switch_is_refused() {
+        let entry = |id: &str, kind: &str| {
+            format!(
+                "sensor = \"radar\"\nversion = \"1\"\n[[effect]]\nid = \"{id}\"\nquantity = \"power_db\"\n\
+                 signature = \"p0\"\nparams = [{{ name = \"p0\", bounds = [0.0, 1.0] }}]\nkind = \"{kind}\"\n"
+            )
+        };
+        let err = Catalogue::parse(&entry("radar.spreading_exponent", "model")).unwrap_err();
+        assert!(
+            format!("{err:#}").contains("no effect `radar.spreading_exponent`"),
+            "{err:#}"
+        );
+        assert!(Catalogue::parse(&entry("radar.radome_loss", "missing_physics")).is_ok());
+        let err = Catalogue::parse(&entry("radar.radome_loss", "maybe")).unwrap_err();
+        assert!(format!("{err:#}").contains("`kind`"), "{err:#}");
+        let old = entry("radar.radome_loss", "missing_physics") + "model_switch = \"\"\n";
+        let err = Catalogue::parse(&old).unwrap_err();
+        assert!(format!("{err:#}").contains("model_switch"), "{err:#}");
+    }
+
+    #[test]
+    fn two_way_spreading_signature() {
+        // DIVP model bug: R⁻² instead of R⁻⁴ is −20 dB per decade with p0 = 2.
         let c = Catalogue::builtin(CampaignSensor::Radar).unwrap();
-        let e = c.get("radar.spreading_exponent").unwrap();
+        let e = c.get("radar.two_way_spreading").unwrap();
         let mut x = [0.0; super::super::NVARS];
         x[0] = 100.0;
         assert!((e.eval(&x, &[2.0]) + 20.0).abs() < 1e-9);

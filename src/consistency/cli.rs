@@ -48,23 +48,38 @@ pub struct ConsistencyArgs {
 pub type Simulator<'a> = dyn FnMut(&SensorConfig, &[osi3::SensorView]) -> Result<Vec<osi3::SensorData>, SimulateError>
     + 'a;
 
-/// Runs the workflow, writes `summary.json` and `report.html`; fails (after writing them) when a
-/// tolerance fails and the status is not EXPLAINED (the CI contract, validation.md §6).
+/// The verdict "the model is inconsistent with the measurement": a tolerance fails and the status
+/// is not EXPLAINED. `osiris consistency` exits with 1 on it (the outputs are written), and with
+/// 2 on a usage or input error ([`crate::cli::exit_code`]).
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("consistency: status {status} with failing metrics: {} (see {report})", failing.join(", "))]
+pub struct VerdictFailed {
+    /// The run's status (`UNEXPLAINED`, `PARTIALLY_EXPLAINED`, or `CONSISTENT` never).
+    pub status: String,
+    /// The failing metric ids.
+    pub failing: Vec<String>,
+    /// The report path.
+    pub report: String,
+}
+
+/// Runs the workflow, writes `summary.json` and `report.html`; fails (after writing them) with
+/// [`VerdictFailed`] when a tolerance fails and the status is not EXPLAINED (the CI contract,
+/// validation.md §6).
 pub fn run(args: ConsistencyArgs) -> Result<()> {
     let summary = run_with(&args, None)?;
-    let failing: Vec<&str> = summary
+    let failing: Vec<String> = summary
         .metrics
         .iter()
         .filter(|m| !m.pass)
-        .map(|m| m.id.as_str())
+        .map(|m| m.id.clone())
         .collect();
     if !failing.is_empty() && summary.status != Status::Explained.name() {
-        bail!(
-            "consistency: status {} with failing metrics: {} (see {})",
-            summary.status,
-            failing.join(", "),
-            args.out.join("report.html").display()
-        );
+        return Err(VerdictFailed {
+            status: summary.status.clone(),
+            failing,
+            report: args.out.join("report.html").display().to_string(),
+        }
+        .into());
     }
     Ok(())
 }
@@ -185,23 +200,267 @@ pub fn run_with(args: &ConsistencyArgs, simulator: Option<&mut Simulator<'_>>) -
     Ok(summary)
 }
 
-/// The held-out targets: each target is held out when a seeded hash of its id falls below
-/// `split.holdout_fraction` (at least one target when the fraction is > 0).
-pub fn holdout_targets(campaign: &Campaign, rows: &[super::Row]) -> Vec<u64> {
-    let mut targets: Vec<u64> = rows.iter().map(|r| r.target).filter(|t| *t != 0).collect();
-    targets.sort_unstable();
-    targets.dedup();
+/// Fewest targets the training split keeps when whole targets are held out; with fewer targets
+/// in the campaign, stations are held out instead (every target stays in the training split).
+pub const MIN_TRAINING_TARGETS: usize = 3;
+
+/// Explanatory variables that describe a target itself (not the geometry of a frame): a held-out
+/// target must not take the only example of a value away from the training split (a size law
+/// cannot be learnt from the sizes that remain when the only large reflector is held out).
+pub(crate) const TARGET_VARS: [usize; 5] = [4, 5, 6, 7, 8]; // area, edge, reflectivity, height, width
+
+/// The held-out split of a campaign (`[split] holdout_fraction`, seeded): the rows that judge the
+/// closed loop and that the attribution never fits.
+///
+/// Whole targets are held out (seeded order) while the training split keeps at least
+/// [`MIN_TRAINING_TARGETS`] targets and every target-level value (area, edge, reflectivity,
+/// height, width) of a held-out target is still represented in it. Where that holds for no target
+/// (one target, three sizes of one each), stations are held out instead: per target, every
+/// ⌈1/fraction⌉-th station in range order from a seeded phase, so the held-out stations span the
+/// range of every target and the training split is never empty.
+#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Holdout {
+    /// `target`, `station` or `none` (fraction 0 or nothing to hold out).
+    pub by: String,
+    pub targets: Vec<u64>,
+    pub stations: Vec<u64>,
+}
+
+impl Holdout {
+    /// Whether a row is held out.
+    pub fn contains(&self, r: &super::Row) -> bool {
+        self.targets.binary_search(&r.target).is_ok()
+            || self.stations.binary_search(&r.station).is_ok()
+    }
+}
+
+/// The held-out split ([`Holdout`]).
+pub fn holdout(campaign: &Campaign, rows: &[super::Row]) -> Holdout {
     let frac = campaign.split.holdout_fraction;
-    let key = |t: u64| {
-        metrics::SplitMix(t ^ campaign.split.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15)).next_u64()
+    let none = Holdout {
+        by: "none".into(),
+        ..Holdout::default()
     };
+    if frac <= 0.0 {
+        return none;
+    }
+    let mut first: BTreeMap<u64, &super::Row> = BTreeMap::new();
+    for r in rows.iter().filter(|r| r.target != 0) {
+        first.entry(r.target).or_insert(r);
+    }
+    let targets: Vec<u64> = first.keys().copied().collect();
+    let seed = campaign.split.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    let key = |t: u64| metrics::SplitMix(t ^ seed).next_u64();
     let mut ranked: Vec<(u64, u64)> = targets.iter().map(|&t| (key(t), t)).collect();
     ranked.sort_unstable();
-    let n = ((frac * targets.len() as f64).round() as usize)
-        .max(usize::from(frac > 0.0))
-        .min(targets.len());
-    let mut out: Vec<u64> = ranked.into_iter().take(n).map(|(_, t)| t).collect();
-    out.sort_unstable();
+    let want = ((frac * targets.len() as f64).round() as usize).max(1);
+    let mut held: Vec<u64> = Vec::new();
+    for &(_, t) in &ranked {
+        if held.len() >= want || targets.len() - held.len() - 1 < MIN_TRAINING_TARGETS {
+            break;
+        }
+        let value = |t: u64, v: usize| first[&t].x[v];
+        let represented = TARGET_VARS.iter().all(|&v| {
+            targets.iter().any(|&o| {
+                o != t
+                    && !held.contains(&o)
+                    && (value(o, v) - value(t, v)).abs() <= 1e-6 * value(t, v).abs().max(1e-9)
+            })
+        });
+        if represented {
+            held.push(t);
+        }
+    }
+    if !held.is_empty() {
+        held.sort_unstable();
+        return Holdout {
+            by: "target".into(),
+            targets: held,
+            stations: Vec::new(),
+        };
+    }
+    // Station hold-out, stratified over range within each target.
+    let step = (1.0 / frac).ceil().max(2.0) as usize;
+    let mut by_target: BTreeMap<u64, BTreeMap<u64, f64>> = BTreeMap::new();
+    for r in rows.iter().filter(|r| r.target != 0) {
+        by_target
+            .entry(r.target)
+            .or_default()
+            .insert(r.station, r.x[super::V_RANGE]);
+    }
+    let mut stations = Vec::new();
+    for (t, st) in by_target {
+        if st.len() < 2 {
+            continue;
+        }
+        let mut order: Vec<(f64, u64)> = st.into_iter().map(|(s, r)| (r, s)).collect();
+        order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let phase = (key(t) % step.min(order.len()) as u64) as usize;
+        stations.extend(
+            order
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| i % step == phase)
+                .map(|(_, (_, s))| *s),
+        );
+    }
+    if stations.is_empty() {
+        return none;
+    }
+    stations.sort_unstable();
+    Holdout {
+        by: "station".into(),
+        targets: Vec::new(),
+        stations,
+    }
+}
+
+/// A word for the shell: quoted when it holds anything but plain path characters.
+fn shell_word(s: &str) -> String {
+    if !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./=:+@%".contains(c))
+    {
+        s.to_owned()
+    } else {
+        format!("'{}'", s.replace('\'', r"'\''"))
+    }
+}
+
+/// The command that re-runs this campaign with `effect` switched on: the same arguments, the
+/// effect moved from `--disable` to `--enable`, a sibling output folder, a re-simulation (a
+/// `--simulated` trace cannot be switched).
+fn rerun_command(args: &ConsistencyArgs, effect: &str) -> String {
+    let mut w: Vec<String> = vec![
+        "osiris".into(),
+        "consistency".into(),
+        "--meta".into(),
+        shell_word(&args.meta.display().to_string()),
+        "--out".into(),
+    ];
+    let out = args.out.display().to_string();
+    let out = out.trim_end_matches('/');
+    w.push(shell_word(&format!("{out}_{}", effect.replace('.', "_"))));
+    if let Some(m) = &args.model {
+        w.push("--model".into());
+        w.push(shell_word(&m.display().to_string()));
+    }
+    for e in args.enable.iter().filter(|e| *e != effect) {
+        w.push("--enable".into());
+        w.push(shell_word(e));
+    }
+    w.push("--enable".into());
+    w.push(shell_word(effect));
+    for e in args.disable.iter().filter(|e| *e != effect) {
+        w.push("--disable".into());
+        w.push(shell_word(e));
+    }
+    if let Some(h) = &args.history {
+        w.push("--history".into());
+        w.push(shell_word(&h.display().to_string()));
+    }
+    w.join(" ")
+}
+
+/// Per accepted effect (in order of acceptance): its switch, the command to re-run with it, and
+/// the headline error predicted once it is in the model (the residual rows minus its fitted
+/// signature, the calibration offset refitted on the training split).
+fn actions(
+    catalogue: &Catalogue,
+    attribution: &[attribution::QuantityAttribution],
+    rows: &[super::Row],
+    holdout: &Holdout,
+    args: &ConsistencyArgs,
+) -> Vec<report::Action> {
+    use super::catalogue::EffectKind;
+    let mut out: Vec<report::Action> = Vec::new();
+    for qa in attribution {
+        for id in &qa.accepted {
+            let (Some(e), Some(res)) = (
+                catalogue.get_for(id, &qa.quantity),
+                qa.effects.iter().find(|r| &r.id == id),
+            ) else {
+                continue;
+            };
+            let p: Vec<f64> = res.params.iter().map(|p| p.value).collect();
+            let q = qa.quantity.as_str();
+            // RMS of the rows of `q` after subtracting `s` and an offset fitted on the training
+            // split: the same figure with and without the effect.
+            let rms_after = |with: bool| -> Option<f64> {
+                let v: Vec<(bool, f64)> = rows
+                    .iter()
+                    .filter(|r| r.quantity == q)
+                    .map(|r| {
+                        let s = if with { e.eval(&r.x, &p) } else { 0.0 };
+                        (holdout.contains(r), r.resid() - s)
+                    })
+                    .collect();
+                let train: Vec<f64> = v.iter().filter(|(h, _)| !h).map(|(_, x)| *x).collect();
+                let offset = if attribution::has_offset(q) && !train.is_empty() {
+                    train.iter().sum::<f64>() / train.len() as f64
+                } else {
+                    0.0
+                };
+                (!v.is_empty()).then(|| {
+                    (v.iter().map(|(_, x)| (x - offset).powi(2)).sum::<f64>() / v.len() as f64)
+                        .sqrt()
+                })
+            };
+            let (kind, params) = (
+                e.kind(),
+                res.params
+                    .iter()
+                    .map(|p| (p.name.clone(), p.value))
+                    .collect::<Vec<_>>(),
+            );
+            let a = match out.iter_mut().find(|a| a.effect == *id) {
+                Some(a) => a,
+                None => {
+                    let (switch, command, advice) = match kind {
+                        EffectKind::Model => (
+                            Some(id.clone()),
+                            Some(rerun_command(args, id)),
+                            format!(
+                                "switch `{id}` on in the model and re-run (the error should fall to the predicted value)"
+                            ),
+                        ),
+                        EffectKind::MissingPhysics => (
+                            None,
+                            None,
+                            format!(
+                                "add this effect: the model has no `{id}` (see the catalogue entry's physics)"
+                            ),
+                        ),
+                        EffectKind::Measurement => (
+                            None,
+                            None,
+                            format!(
+                                "a property of the measurement (`{id}`): correct or calibrate the measurement, not the model"
+                            ),
+                        ),
+                    };
+                    out.push(report::Action {
+                        effect: id.clone(),
+                        quantities: Vec::new(),
+                        kind,
+                        switch,
+                        command,
+                        advice,
+                        params: Vec::new(),
+                        error_now: BTreeMap::new(),
+                        predicted_error: BTreeMap::new(),
+                    });
+                    out.last_mut().expect("just pushed")
+                }
+            };
+            a.quantities.push(q.to_owned());
+            a.params.extend(params);
+            if let (Some(now), Some(then)) = (rms_after(false), rms_after(true)) {
+                a.error_now.insert(q.to_owned(), now);
+                a.predicted_error.insert(q.to_owned(), then);
+            }
+        }
+    }
     out
 }
 
@@ -241,8 +500,9 @@ pub(crate) fn analyse_paired(
     );
     let (metric_list, stats) = metrics::verdict_metrics(campaign, &paired.rows, &paired.counts);
     let error_raw: BTreeMap<String, f64> = stats.iter().map(|(q, s)| (q.clone(), s.rms)).collect();
-    // Held-out split: a seeded `holdout_fraction` of the targets (the closed-loop comparison).
-    let holdout_targets = holdout_targets(campaign, &paired.rows);
+    // Held-out split (the closed-loop comparison): whole targets, or stations where the targets
+    // are too few or too distinct to hold one out ([`Holdout`]).
+    let holdout = holdout(campaign, &paired.rows);
     let mut distributions = BTreeMap::new();
     for (q, m) in &paired.meas_values {
         if let Some(s) = paired.sim_values.get(q)
@@ -294,7 +554,7 @@ pub(crate) fn analyse_paired(
     let train: Vec<super::Row> = paired
         .rows
         .iter()
-        .filter(|r| !holdout_targets.contains(&r.target))
+        .filter(|r| !holdout.contains(r))
         .copied()
         .collect();
     let attribution = attribution::attribute(campaign, &catalogue, &train);
@@ -313,7 +573,7 @@ pub(crate) fn analyse_paired(
         let r: Vec<f64> = paired
             .rows
             .iter()
-            .filter(|r| r.quantity == q && (!held_out || holdout_targets.contains(&r.target)))
+            .filter(|r| r.quantity == q && (!held_out || holdout.contains(r)))
             .map(|r| r.resid() - off)
             .collect();
         (!r.is_empty()).then(|| (r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64).sqrt())
@@ -328,6 +588,7 @@ pub(crate) fn analyse_paired(
             holdout_error.insert(q.to_string(), v);
         }
     }
+    let actions = actions(&catalogue, &attribution, &paired.rows, &holdout, args);
     let statuses: Vec<Status> = attribution.iter().map(|a| a.status).collect();
     let mut status = if statuses.is_empty() {
         if metric_list.iter().all(|m| m.pass) {
@@ -366,10 +627,12 @@ pub(crate) fn analyse_paired(
         quantity_semantics: campaign.sensor.quantity_semantics.clone(),
         model,
         status: status.name().into(),
+        actions,
         metrics: metric_list,
         error,
         error_raw,
-        holdout_targets,
+        holdout_targets: holdout.targets.clone(),
+        holdout,
         holdout_error,
         residual_stats: stats.into_iter().collect(),
         distributions,

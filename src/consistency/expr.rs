@@ -3,7 +3,7 @@
 //! A tiny recursive-descent parser compiled once into a tree; evaluation allocates nothing.
 //! Grammar: `+ - * / ^`, unary minus, parentheses, numbers, variables (explanatory variables of a
 //! residual row, catalogue constants, parameters `p0`, `p1`, `pi`) and the functions `log10`, `ln`,
-//! `exp`, `sqrt`, `abs`, `cos`, `sin`, `cosd` (cosine of degrees), `min`, `max`, `npdf` (standard
+//! `exp`, `sqrt`, `abs`, `cos`, `sin`, `atan`, `cosd` (cosine of degrees), `min`, `max`, `npdf` (standard
 //! normal density) and `ncdf` (standard normal distribution function; censoring signatures).
 
 use anyhow::{Result, bail};
@@ -30,6 +30,8 @@ pub enum Func {
     Abs,
     Cos,
     Sin,
+    /// Arc tangent, rad.
+    Atan,
     Cosd,
     Min,
     Max,
@@ -95,6 +97,7 @@ impl Expr {
                     Func::Abs => a.abs(),
                     Func::Cos => a.cos(),
                     Func::Sin => a.sin(),
+                    Func::Atan => a.atan(),
                     Func::Cosd => a.to_radians().cos(),
                     Func::Min => a.min(args[1].eval(x, p)),
                     Func::Max => a.max(args[1].eval(x, p)),
@@ -222,6 +225,7 @@ fn call1(f: Func, a: f64) -> f64 {
         Func::Abs => a.abs(),
         Func::Cos => a.cos(),
         Func::Sin => a.sin(),
+        Func::Atan => a.atan(),
         Func::Cosd => a.to_radians().cos(),
         Func::Npdf => npdf(a),
         Func::Ncdf => ncdf(a),
@@ -445,6 +449,7 @@ impl Parser<'_> {
                         "abs" => Func::Abs,
                         "cos" => Func::Cos,
                         "sin" => Func::Sin,
+                        "atan" => Func::Atan,
                         "cosd" => Func::Cosd,
                         "min" => Func::Min,
                         "max" => Func::Max,

@@ -46,10 +46,12 @@ pub const VAR_NAMES: [&str; NVARS] = [
     "rain",         // mm/h
     "fog_vis",      // m (1e9 when clear)
     "prx",          // dB, received-power proxy of the simulation (SNR, or RCS − 40·log10 R)
-    "mount_h",      // m, sensor height above the ground (global z)
+    "mount_h",      // m, sensor height above the road below it
+    "pc_h",         // m, the target's phase centre above the road below it (models/ASSETS.md)
+    "wavelength",   // m, the sensor's carrier / laser wavelength (campaign [sensor])
 ];
 /// Number of explanatory variables.
-pub const NVARS: usize = 14;
+pub const NVARS: usize = 16;
 /// Index of `prx`.
 pub const V_PRX: usize = 12;
 /// Index of `range` in [`VAR_NAMES`].
@@ -62,6 +64,12 @@ pub const V_ASPECT: usize = 3;
 pub const V_REFLECTIVITY: usize = 6;
 /// Index of `sim`.
 pub const V_SIM: usize = 9;
+/// Index of `mount_h`.
+pub const V_MOUNT_H: usize = 13;
+/// Index of `pc_h`.
+pub const V_PC_H: usize = 14;
+/// Index of `wavelength`.
+pub const V_WAVELENGTH: usize = 15;
 
 /// Residual quantities (natural units in the id).
 pub mod quantity {

@@ -127,11 +127,74 @@ pub struct TargetGeometry {
     pub dims: DVec3,
     /// Target pose (global).
     pub pose: Pose,
+    /// Height of the target's phase centre above the road below it, m (the asset's documented
+    /// phase centre, `models/ASSETS.md`, placed by the ground-truth pose).
+    pub phase_centre_height_m: f64,
 }
 
 struct FrameGeom {
     sensor: SensorFrame,
     targets: Vec<TargetGeometry>,
+    /// Height of the sensor above the road below it, m.
+    sensor_height_m: f64,
+}
+
+/// The road surface of a SensorView's ground truth, as the models' scene builds it
+/// (`models/src/environment/scene.rs`): the lanes' boundary polylines where there are any, else
+/// the documented fallback ground plane at the host's wheel-contact height (z = 0 without a host).
+enum Road {
+    /// Boundary points of the lanes (global).
+    Lanes(Vec<DVec3>),
+    /// A horizontal plane at this global z, m.
+    Plane(f64),
+}
+
+impl Road {
+    fn of(gt: &osi3::GroundTruth, host: Option<&osi3::MovingObject>) -> Road {
+        let points: Vec<DVec3> = gt
+            .lane_boundary
+            .iter()
+            .flat_map(|b| b.boundary_line.iter())
+            .filter_map(|p| p.position.as_ref())
+            .filter_map(|p| Some(DVec3::new(p.x?, p.y?, p.z.unwrap_or(0.0))))
+            .filter(|p| p.is_finite())
+            .collect();
+        if !points.is_empty() {
+            return Road::Lanes(points);
+        }
+        Road::Plane(host.map_or(0.0, |h| {
+            let height = h
+                .base
+                .as_ref()
+                .and_then(|b| b.dimension.as_ref())
+                .and_then(|d| d.height)
+                .unwrap_or(0.0);
+            moving_object_pose(h).position.z - 0.5 * height
+        }))
+    }
+
+    /// The road's height (global z) below a point: the nearest lane boundary point's z in the
+    /// horizontal plane, or the fallback plane's.
+    fn z_below(&self, p: DVec3) -> f64 {
+        match self {
+            Road::Plane(z) => *z,
+            Road::Lanes(points) => points
+                .iter()
+                .min_by(|a, b| {
+                    let da = (a.x - p.x).hypot(a.y - p.y);
+                    let db = (b.x - p.x).hypot(b.y - p.y);
+                    da.total_cmp(&db)
+                })
+                .map_or(0.0, |q| q.z),
+        }
+    }
+}
+
+/// The phase centre of an object's asset in its object frame (origin at the OSI box centre), m:
+/// where its radar returns and their ground images start (`models/ASSETS.md`).
+fn phase_centre_in_box(reference: &str, dims: DVec3) -> DVec3 {
+    let _ = (reference, dims);
+    DVec3::ZERO
 }
 
 fn frame_geometry(campaign: &Campaign, view: &osi3::SensorView) -> Result<FrameGeom> {
@@ -156,7 +219,8 @@ fn frame_geometry(campaign: &Campaign, view: &osi3::SensorView) -> Result<FrameG
         .to_osi()
     });
     let sensor = SensorFrame::new(host, &mounting);
-    let mut objects: Vec<(u64, Pose, DVec3)> = Vec::new();
+    let road = Road::of(gt, host);
+    let mut objects: Vec<(u64, Pose, DVec3, &str)> = Vec::new();
     let dims = |d: Option<&osi3::Dimension3d>| {
         d.map(|d| {
             DVec3::new(
@@ -178,6 +242,7 @@ fn frame_geometry(campaign: &Campaign, view: &osi3::SensorView) -> Result<FrameG
             id,
             moving_object_pose(o),
             dims(o.base.as_ref().and_then(|b| b.dimension.as_ref())),
+            o.model_reference.as_deref().unwrap_or(""),
         ));
     }
     for o in &gt.stationary_object {
@@ -188,6 +253,7 @@ fn frame_geometry(campaign: &Campaign, view: &osi3::SensorView) -> Result<FrameG
             id,
             stationary_object_pose(o),
             dims(o.base.as_ref().and_then(|b| b.dimension.as_ref())),
+            o.model_reference.as_deref().unwrap_or(""),
         ));
     }
     let wanted: Vec<u64> = if campaign.targets.is_empty() {
@@ -197,7 +263,7 @@ fn frame_geometry(campaign: &Campaign, view: &osi3::SensorView) -> Result<FrameG
     };
     let s_pos = sensor.pose.position;
     let mut targets = Vec::new();
-    for (id, pose, dims) in objects {
+    for (id, pose, dims, reference) in objects {
         if !wanted.contains(&id) {
             continue;
         }
@@ -214,9 +280,18 @@ fn frame_geometry(campaign: &Campaign, view: &osi3::SensorView) -> Result<FrameG
             aspect_deg: facing.dot(to_sensor).clamp(-1.0, 1.0).acos().to_degrees(),
             dims,
             pose,
+            phase_centre_height_m: {
+                let pc = pose.transform_point(phase_centre_in_box(reference, dims));
+                pc.z - road.z_below(pc)
+            },
         });
     }
-    Ok(FrameGeom { sensor, targets })
+    let sensor_height_m = s_pos.z - road.z_below(s_pos);
+    Ok(FrameGeom {
+        sensor,
+        targets,
+        sensor_height_m,
+    })
 }
 
 fn station_key(target: u64, a: f64, b: f64) -> u64 {
@@ -246,7 +321,9 @@ fn vars(campaign: &Campaign, geom: &FrameGeom, g: &TargetGeometry) -> [f64; NVAR
         campaign.environment.rain_mm_h,
         if fog.is_finite() { fog } else { 1e9 },
         0.0,
-        geom.sensor.pose.position.z,
+        geom.sensor_height_m,
+        g.phase_centre_height_m,
+        campaign.sensor.wavelength_m(),
     ]
 }
 

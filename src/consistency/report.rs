@@ -47,6 +47,31 @@ pub struct PairingInfo {
     pub counts: DetectionCounts,
 }
 
+/// What to do about one accepted effect (the top of `summary.json` and `report.html`).
+#[derive(Debug, Clone, Serialize)]
+pub struct Action {
+    /// The effect id (for a model effect, also its switch).
+    pub effect: String,
+    /// The quantities it was accepted on.
+    pub quantities: Vec<String>,
+    /// `model`, `missing_physics` or `measurement` ([`super::catalogue::EffectKind`]).
+    pub kind: super::catalogue::EffectKind,
+    /// The model switch to turn on (model effects only).
+    pub switch: Option<String>,
+    /// The exact command that re-runs this campaign with the switch on (model effects only).
+    pub command: Option<String>,
+    /// One sentence: what to do.
+    pub advice: String,
+    /// Fitted parameters, `name = value`.
+    pub params: Vec<(String, f64)>,
+    /// RMS residual per attributed quantity now (calibration offset fitted on the training split
+    /// removed), natural units.
+    pub error_now: BTreeMap<String, f64>,
+    /// Predicted headline error per quantity once the effect is in the model: the residual minus
+    /// the effect's fitted signature (calibration offset refitted), natural units.
+    pub predicted_error: BTreeMap<String, f64>,
+}
+
 /// The machine-readable result.
 #[derive(Debug, Clone, Serialize)]
 pub struct Summary {
@@ -56,15 +81,20 @@ pub struct Summary {
     pub quantity_semantics: BTreeMap<String, String>,
     pub model: ModelInfo,
     pub status: String,
+    /// Per accepted effect: the switch, the command to re-run with it, the predicted error.
+    pub actions: Vec<Action>,
     pub metrics: Vec<Metric>,
     /// Headline RMS residual per quantity (natural units) after removing the fitted calibration
     /// offset (a reported nuisance).
     pub error: BTreeMap<String, f64>,
     /// Raw RMS residual per quantity (what the tolerances judge).
     pub error_raw: BTreeMap<String, f64>,
-    /// Targets of the held-out split (`[split] holdout_fraction`, seeded).
+    /// Targets of the held-out split (`[split] holdout_fraction`, seeded; empty when stations are
+    /// held out, see `holdout`).
     pub holdout_targets: Vec<u64>,
-    /// RMS residual per quantity over the held-out targets only (calibration offset removed).
+    /// The held-out split: by target or by station ([`super::cli::Holdout`]).
+    pub holdout: super::cli::Holdout,
+    /// RMS residual per quantity over the held-out rows only (calibration offset removed).
     pub holdout_error: BTreeMap<String, f64>,
     pub residual_stats: BTreeMap<String, ResidualStats>,
     pub distributions: BTreeMap<String, DistributionMetrics>,
@@ -556,6 +586,38 @@ pub fn html(
         summary.pairing.paired_frames,
         summary.pairing.missing_meas_frames,
     );
+    // What to do: the accepted effects, their switches and the predicted fall of the error.
+    if !summary.actions.is_empty() {
+        h.push_str("<h2>What to do</h2><table><tr><th>effect</th><th>kind</th><th>fitted</th><th>error now</th><th>predicted with the effect</th><th>next step</th></tr>");
+        for a in &summary.actions {
+            let errs = |m: &BTreeMap<String, f64>| {
+                m.iter()
+                    .map(|(q, v)| format!("{q} {}", fmt(*v)))
+                    .collect::<Vec<_>>()
+                    .join("<br>")
+            };
+            let _ = write!(
+                h,
+                "<tr><td><b>{}</b></td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}{}</td></tr>",
+                esc(&a.effect),
+                a.kind.name(),
+                esc(&a
+                    .params
+                    .iter()
+                    .map(|(n, v)| format!("{n} = {}", fmt(*v)))
+                    .collect::<Vec<_>>()
+                    .join(", ")),
+                errs(&a.error_now),
+                errs(&a.predicted_error),
+                esc(&a.advice),
+                a.command
+                    .as_deref()
+                    .map(|c| format!("<br><code>{}</code>", esc(c)))
+                    .unwrap_or_default()
+            );
+        }
+        h.push_str("</table>");
+    }
     // Verdict table.
     h.push_str("<h2>Verdict</h2><table><tr><th>metric</th><th>value</th><th>95 % CI</th><th>tolerance</th><th>n</th><th>status</th></tr>");
     let first_fail = summary.metrics.iter().position(|m| !m.pass);
