@@ -446,6 +446,23 @@ fn closed_loop_enabling_the_identified_effect_makes_the_error_fall() {
     eprintln!("{}", describe(&before));
     let rain = before.effect("radar.rain_attenuation").unwrap();
     assert!(rain.accepted, "{}", describe(&before));
+    // The verdict says what to do: the switch, the exact re-run command, the predicted error.
+    let act = &before.actions[0];
+    assert_eq!(act.effect, "radar.rain_attenuation");
+    assert_eq!(act.switch.as_deref(), Some("radar.rain_attenuation"));
+    let cmd = act.command.as_deref().unwrap();
+    assert!(
+        cmd.starts_with("osiris consistency --meta ")
+            && cmd.contains("--enable radar.rain_attenuation")
+            && !cmd.contains("--disable radar.rain_attenuation")
+            && cmd.contains("--history "),
+        "{cmd}"
+    );
+    let (now, predicted) = (
+        act.error_now["power_db"],
+        act.predicted_error["power_db"],
+    );
+    assert!(predicted < 0.8 * now, "predicted {predicted} vs now {now}");
     assert_eq!(rain.model_switch.as_deref(), Some("radar.rain_attenuation"));
     // ITU-R P.838-3: 11.4 dB/km one-way at 25 mm/h.
     let g = rain.params[0].value;
@@ -465,6 +482,13 @@ fn closed_loop_enabling_the_identified_effect_makes_the_error_fall() {
     assert!(!before.holdout_targets.is_empty());
     // Per-detection scatter (fluctuation, thermal noise, 0.5 dB quantisation) of ≈ 1 dB stays.
     assert!(c < 0.8 * b, "held-out power RMS {b} -> {c}");
+    // The prediction of the first run is what the second run measured (same offset convention).
+    let rerun = after.error["power_db"];
+    assert!(
+        (rerun - predicted).abs() < 0.25 * predicted.max(0.5),
+        "predicted {predicted}, re-run {rerun}"
+    );
+    assert!(after.actions.is_empty(), "{:?}", after.actions);
     // No earlier metric regresses.
     for m in &after.metrics {
         let prev = before.metrics.iter().find(|p| p.id == m.id).unwrap();
@@ -815,4 +839,98 @@ fn resimulation_with_the_physical_lidar_model() {
     eprintln!("{}", describe(&s));
     assert_eq!(s.pairing.paired_frames, 2);
     assert!(s.pairing.counts.sim_detected > 0, "{:?}", s.pairing.counts);
+}
+
+#[test]
+fn one_target_keeps_a_training_split_and_names_the_effect() {
+    // One reflector: holding out the target would leave nothing to fit; stations are held out.
+    let dir = tempfile::tempdir().unwrap();
+    let s = radar(
+        dir.path(),
+        RadarTruth {
+            edges_m: vec![0.15],
+            lateral_m: vec![0.0],
+            hidden: vec![RadarHidden::ModelSpreadingR2],
+            seed: 21,
+            ..RadarTruth::default()
+        },
+    );
+    assert_eq!(s.holdout.by, "station");
+    assert!(s.holdout_targets.is_empty() && !s.holdout.stations.is_empty());
+    let a = s.attribution.iter().find(|a| a.quantity == "power_db").unwrap();
+    assert!(a.stations > s.holdout.stations.len(), "training split empty");
+    assert_eq!(s.accepted(), vec!["radar.two_way_spreading".to_string()], "{}", describe(&s));
+    assert!(!s.holdout_error.is_empty());
+}
+
+#[test]
+fn three_sizes_of_one_reflector_each_identify_the_area_law() {
+    // Three reflectors of 0.05, 0.1 and 0.2 m: no target can be held out without taking a size
+    // away, and leave-one-target-out folds would train a size law on one size.
+    let dir = tempfile::tempdir().unwrap();
+    let s = radar(
+        dir.path(),
+        RadarTruth {
+            edges_m: vec![0.05, 0.1, 0.2],
+            lateral_m: vec![0.0],
+            hidden: vec![RadarHidden::ModelAreaLinear],
+            seed: 22,
+            ..RadarTruth::default()
+        },
+    );
+    assert_eq!(s.holdout.by, "station");
+    assert_eq!(s.accepted(), vec!["radar.rcs_area_scaling".to_string()], "{}", describe(&s));
+    let p0 = param(&s, "radar.rcs_area_scaling");
+    assert!((p0 - 1.0).abs() < 0.15, "area exponent {p0}");
+}
+
+#[test]
+fn exit_status_separates_verdicts_from_errors() {
+    let bin = env!("CARGO_BIN_EXE_osiris");
+    let dir = tempfile::tempdir().unwrap();
+    let run = |meta: &Path, simulated: &Path, out: &str| {
+        std::process::Command::new(bin)
+            .args(["consistency", "--meta"])
+            .arg(meta)
+            .arg("--simulated")
+            .arg(simulated)
+            .arg("--out")
+            .arg(dir.path().join(out))
+            .output()
+            .unwrap()
+    };
+    // CONSISTENT → 0.
+    let null = write_radar(&dir.path().join("null"), &RadarTruth::default()).unwrap();
+    let o = run(&null.toml, &null.simulated, "o_null");
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    // A failing tolerance that the catalogue does not explain → 1, outputs written.
+    let bad = write_radar(
+        &dir.path().join("bad"),
+        &RadarTruth {
+            hidden: vec![RadarHidden::Scalloping { bandwidth_hz: 1e9 }],
+            ..RadarTruth::default()
+        },
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(&bad.toml).unwrap();
+    // A strict power tolerance, so the scalloping fails it.
+    let text = text.replace("power_db = 5.0", "power_db = 0.3");
+    std::fs::write(&bad.toml, text).unwrap();
+    let o = run(&bad.toml, &bad.simulated, "o_bad");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("failing metrics"), "{err}");
+    assert!(dir.path().join("o_bad/summary.json").exists());
+    // An input error → 2, naming the file.
+    let missing = dir.path().join("nope/consistency.toml");
+    let o = run(&missing, &null.simulated, "o_missing");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("nope/consistency.toml"), "{err}");
+    // A usage error of the command line → 2 (clap).
+    let o = std::process::Command::new(bin)
+        .args(["consistency", "--bogus"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
 }
