@@ -104,6 +104,10 @@ pub enum BenchWhat {
     /// Consistency attribution: 10⁴ residual rows × 30 catalogue effects (forward selection, tie
     /// check, gates) on a rayon pool of the largest `--threads` (default 2), seconds.
     Consistency,
+    /// The consistency workflow's hidden-effect protocol: campaigns with one hidden effect per
+    /// case (or none, or one outside the catalogue) over 10 seeds; hit rate per case and wrong
+    /// acceptances as JSON.
+    ConsistencyProtocol,
 }
 
 #[derive(Debug, Subcommand)]
@@ -288,6 +292,9 @@ pub fn main_with(cli: Cli) -> Result<()> {
                     frames.unwrap_or(5).max(1),
                 ),
                 BenchWhat::Consistency => crate::consistency::bench::bench_consistency(max_threads),
+                BenchWhat::ConsistencyProtocol => crate::consistency::protocol::bench_protocol(
+                    crate::consistency::protocol::PROTOCOL_SEEDS,
+                )?,
             };
             outln!("{}", serde_json::to_string(&figures)?);
             Ok(())

@@ -9,7 +9,7 @@ use osiris::consistency::report::Summary;
 use osiris::consistency::truth::{
     CampaignFiles, LidarHidden, LidarTruth, RadarHidden, RadarTruth, write_lidar, write_radar,
 };
-use osiris::consistency::{ConsistencyArgs, cli};
+use osiris::consistency::{ConsistencyArgs, cli, protocol};
 
 fn args(files: &CampaignFiles, out: &Path, simulated: bool) -> ConsistencyArgs {
     ConsistencyArgs {
@@ -458,10 +458,7 @@ fn closed_loop_enabling_the_identified_effect_makes_the_error_fall() {
             && cmd.contains("--history "),
         "{cmd}"
     );
-    let (now, predicted) = (
-        act.error_now["power_db"],
-        act.predicted_error["power_db"],
-    );
+    let (now, predicted) = (act.error_now["power_db"], act.predicted_error["power_db"]);
     assert!(predicted < 0.8 * now, "predicted {predicted} vs now {now}");
     assert_eq!(rain.model_switch.as_deref(), Some("radar.rain_attenuation"));
     // ITU-R P.838-3: 11.4 dB/km one-way at 25 mm/h.
@@ -647,172 +644,31 @@ fn antenna_pattern_vs_reflector_aspect_is_a_tie_until_the_reflectors_face_the_se
     );
 }
 
-/// The hidden-effect protocol over seeds (validation.md §8.5); slow, run with `--ignored`.
+/// The hidden-effect protocol (validation.md §8) over [`protocol::FAST_SEEDS`] seeds per case: every
+/// case is named in every seed and nothing is wrongly accepted; a case with a documented known gap
+/// may miss one seed, never with a wrong acceptance. `osiris bench consistency-protocol` runs the
+/// same cases over 10 seeds.
 #[test]
-#[ignore]
-fn hidden_effect_protocol_over_seeds() {
+fn hidden_effect_protocol_names_every_case() {
     let dir = tempfile::tempdir().unwrap();
-    let far: Vec<f64> = (0..18).map(|i| 3.0 + 14.0 * f64::from(i)).collect();
-    let cases: Vec<(&str, Vec<RadarHidden>, Vec<f64>, &str)> = vec![
-        ("null", vec![], RadarTruth::default().distances_m, ""),
-        (
-            "r2",
-            vec![RadarHidden::ModelSpreadingR2],
-            far.clone(),
-            "radar.two_way_spreading",
-        ),
-        (
-            "area1",
-            vec![RadarHidden::ModelAreaLinear],
-            RadarTruth::default().distances_m,
-            "radar.rcs_area_scaling",
-        ),
-        (
-            "rain",
-            vec![RadarHidden::Rain { rain_mm_h: 25.0 }],
-            (0..11).map(|i| 3.0 + 14.0 * f64::from(i)).collect(),
-            "radar.rain_attenuation",
-        ),
-        (
-            "compression",
-            vec![RadarHidden::Compression {
-                saturation_snr_db: 45.0,
-            }],
-            RadarTruth::default().distances_m,
-            "radar.receiver_compression",
-        ),
-        (
-            "r2+rain",
-            vec![
-                RadarHidden::ModelSpreadingR2,
-                RadarHidden::Rain { rain_mm_h: 25.0 },
-            ],
-            (0..11).map(|i| 3.0 + 14.0 * f64::from(i)).collect(),
-            "radar.rain_attenuation+radar.two_way_spreading",
-        ),
-        (
-            "stc",
-            vec![RadarHidden::Stc {
-                knee_m: 40.0,
-                exponent: 2.0,
-            }],
-            far.clone(),
-            "radar.stc_range_gain",
-        ),
-        (
-            "scalloping",
-            vec![RadarHidden::Scalloping {
-                bandwidth_hz: 1.0e9,
-            }],
-            (0..40).map(|i| 3.0 + 1.93 * f64::from(i)).collect(),
-            "not-explained",
-        ),
-    ];
-    for (name, hidden, d, want) in cases {
-        let (mut ok, mut covered, mut thetas) = (0, 0, Vec::new());
-        // True parameter of single-effect cases (for the 68 % interval coverage).
-        let truth = match name {
-            "r2" => Some(2.0),
-            "area1" => Some(1.0),
-            "rain" => Some(itu_77ghz_db_per_km(25.0)),
-            _ => None,
-        };
-        for seed in 0..10u64 {
-            let spec = RadarTruth {
-                seed: 1000 + seed,
-                distances_m: d.clone(),
-                edges_m: if name.contains("rain") {
-                    vec![0.1, 0.15, 0.2]
-                } else {
-                    vec![0.05, 0.1, 0.15]
-                },
-                hidden: hidden.clone(),
-                ..RadarTruth::default()
-            };
-            let files = write_radar(&dir.path().join(format!("{name}{seed}")), &spec).unwrap();
-            let s = attribute(&files, &dir.path().join(format!("{name}{seed}/out")));
-            let acc = s.accepted();
-            let good = match want {
-                "" => s.status == "CONSISTENT",
-                "not-explained" => s.status != "EXPLAINED" && s.status != "CONSISTENT",
-                pair if pair.contains('+') => {
-                    let mut want: Vec<&str> = pair.split('+').collect();
-                    let mut got: Vec<&str> = acc.iter().map(String::as_str).collect();
-                    want.sort_unstable();
-                    got.sort_unstable();
-                    want == got
-                }
-                one => acc.first().map(String::as_str) == Some(one),
-            };
-            ok += usize::from(good);
-            if let (Some(t), Some(e)) = (truth, acc.first().and_then(|a| s.effect(a))) {
-                let p = &e.params[0];
-                thetas.push(p.value);
-                covered += usize::from(p.ci68[0] <= t && t <= p.ci68[1]);
-            }
-            if !good {
-                eprintln!("{name} seed {seed}: {}", describe(&s));
-            }
+    let mut failures = Vec::new();
+    for case in protocol::cases() {
+        let outcomes = protocol::run_case(&case, protocol::FAST_SEEDS, dir.path()).unwrap();
+        let hits = outcomes.iter().filter(|o| o.hit).count();
+        eprintln!("PROTOCOL {}: {hits}/{}", case.name, outcomes.len());
+        let allowed_misses = usize::from(case.known_gap.is_some());
+        if hits + allowed_misses < outcomes.len() {
+            failures.push(format!(
+                "{}: {hits}/{} {outcomes:?}",
+                case.name,
+                outcomes.len()
+            ));
         }
-        eprintln!(
-            "PROTOCOL {name}: {ok}/10 correct; 68 % CI coverage {covered}/{}; θ {thetas:.3?}",
-            thetas.len()
-        );
-    }
-}
-
-/// The LiDAR hidden-effect protocol over seeds; slow, run with `--ignored`.
-#[test]
-#[ignore]
-fn lidar_hidden_effect_protocol_over_seeds() {
-    let dir = tempfile::tempdir().unwrap();
-    let cases: Vec<(&str, Vec<LidarHidden>, Option<f64>, &str)> = vec![
-        ("null", vec![], None, ""),
-        (
-            "overlap",
-            vec![LidarHidden::Overlap { r0_m: 3.0 }],
-            None,
-            "lidar.overlap_function",
-        ),
-        (
-            "vdiv",
-            vec![LidarHidden::VerticalDivergence { mrad: 6.0 }],
-            None,
-            "lidar.vertical_divergence",
-        ),
-        (
-            "mixed",
-            vec![LidarHidden::MixedPixels {
-                footprint_mrad: 4.0,
-            }],
-            Some(2.0),
-            "lidar.mixed_pixels",
-        ),
-    ];
-    for (name, hidden, gap, want) in cases {
-        let (mut ok, mut statuses) = (0, Vec::new());
-        for seed in 0..10u64 {
-            let spec = LidarTruth {
-                seed: 2000 + seed,
-                hidden: hidden.clone(),
-                back_board_gap_m: gap,
-                ..LidarTruth::default()
-            };
-            let files = write_lidar(&dir.path().join(format!("{name}{seed}")), &spec).unwrap();
-            let s = attribute(&files, &dir.path().join(format!("{name}{seed}/out")));
-            let good = if want.is_empty() {
-                s.status == "CONSISTENT"
-            } else {
-                s.accepted().iter().any(|a| a == want)
-            };
-            ok += usize::from(good);
-            statuses.push(s.status.clone());
-            if !good {
-                eprintln!("{name} seed {seed}: {}", describe(&s));
-            }
+        for o in outcomes.iter().filter(|o| !o.wrong.is_empty()) {
+            failures.push(format!("{} wrong acceptance {o:?}", case.name));
         }
-        eprintln!("PROTOCOL lidar {name}: {ok}/10 correct; statuses {statuses:?}");
     }
+    assert!(failures.is_empty(), "{failures:#?}");
 }
 
 /// End-to-end LiDAR re-simulation through `osiris_models::build_sensor`; skipped while the physical
@@ -857,9 +713,21 @@ fn one_target_keeps_a_training_split_and_names_the_effect() {
     );
     assert_eq!(s.holdout.by, "station");
     assert!(s.holdout_targets.is_empty() && !s.holdout.stations.is_empty());
-    let a = s.attribution.iter().find(|a| a.quantity == "power_db").unwrap();
-    assert!(a.stations > s.holdout.stations.len(), "training split empty");
-    assert_eq!(s.accepted(), vec!["radar.two_way_spreading".to_string()], "{}", describe(&s));
+    let a = s
+        .attribution
+        .iter()
+        .find(|a| a.quantity == "power_db")
+        .unwrap();
+    assert!(
+        a.stations > s.holdout.stations.len(),
+        "training split empty"
+    );
+    assert_eq!(
+        s.accepted(),
+        vec!["radar.two_way_spreading".to_string()],
+        "{}",
+        describe(&s)
+    );
     assert!(!s.holdout_error.is_empty());
 }
 
@@ -879,7 +747,12 @@ fn three_sizes_of_one_reflector_each_identify_the_area_law() {
         },
     );
     assert_eq!(s.holdout.by, "station");
-    assert_eq!(s.accepted(), vec!["radar.rcs_area_scaling".to_string()], "{}", describe(&s));
+    assert_eq!(
+        s.accepted(),
+        vec!["radar.rcs_area_scaling".to_string()],
+        "{}",
+        describe(&s)
+    );
     let p0 = param(&s, "radar.rcs_area_scaling");
     assert!((p0 - 1.0).abs() < 0.15, "area exponent {p0}");
 }
@@ -902,7 +775,12 @@ fn exit_status_separates_verdicts_from_errors() {
     // CONSISTENT → 0.
     let null = write_radar(&dir.path().join("null"), &RadarTruth::default()).unwrap();
     let o = run(&null.toml, &null.simulated, "o_null");
-    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     // A failing tolerance that the catalogue does not explain → 1, outputs written.
     let bad = write_radar(
         &dir.path().join("bad"),

@@ -12,6 +12,7 @@
 //! * [`simulate`]: re-simulation through `osiris_models::build_sensor` (the FMU's code path).
 //! * [`report`]: `summary.json` and the self-contained `report.html`.
 //! * [`history`]: the run registry behind `--history`.
+//! * [`protocol`]: the hidden-effect protocol (hit rates per case; `osiris bench consistency-protocol`).
 //! * [`truth`]: the independent truth generator used by the tests (closed-form physics, hidden effects).
 //! * [`cli`]: `osiris consistency`.
 
@@ -25,6 +26,7 @@ pub mod expr;
 pub mod history;
 pub mod metrics;
 pub mod pairing;
+pub mod protocol;
 pub mod report;
 pub mod simulate;
 pub mod truth;
