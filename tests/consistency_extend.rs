@@ -63,7 +63,7 @@ fn a_registered_effect_is_found_fitted_and_enabling_it_makes_the_error_fall() {
 }
 
 #[test]
-fn registration_validates_and_install_is_scoped() {
+fn registration_validates_and_a_catalogue_is_passed_as_a_value() {
     let mut c = Catalogue::builtin(CampaignSensor::Radar).unwrap();
     let n = c.effects.len();
     // Duplicate id.
@@ -99,47 +99,41 @@ fn registration_validates_and_install_is_scoped() {
     );
     assert!(outside.unwrap_err().to_string().contains("nominal"));
     assert!(Effect::from_signature("x.var", "power_db", "p0*speed", &[], vec![]).is_err());
-    // A valid one: registered, visible inside `install` only, on this thread only.
+    // A valid one: registered in this catalogue value only; the built-in catalogue is untouched.
     c.register(Box::new(bumper::BumperEdgeBlockage::default()))
         .unwrap();
     assert_eq!(c.effects.len(), n + 1);
     let id = "radar.bumper_edge_blockage";
+    assert!(c.get(id).is_some());
     assert!(
         Catalogue::builtin(CampaignSensor::Radar)
             .unwrap()
             .get(id)
             .is_none()
     );
-    c.install(|| {
-        assert!(
-            Catalogue::builtin(CampaignSensor::Radar)
-                .unwrap()
-                .get(id)
-                .is_some()
-        );
-        // The LiDAR catalogue is untouched.
-        assert!(
-            Catalogue::builtin(CampaignSensor::Lidar)
-                .unwrap()
-                .get(id)
-                .is_none()
-        );
-        std::thread::spawn(move || {
-            assert!(
-                Catalogue::builtin(CampaignSensor::Radar)
-                    .unwrap()
-                    .get(id)
-                    .is_none()
-            )
-        })
-        .join()
-        .unwrap();
-    });
+    // A catalogue of another sensor is refused by the workflow, naming both.
+    let lidar = Catalogue::builtin(CampaignSensor::Lidar).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let files = osiris::consistency::truth::write_radar(
+        &dir.path().join("c"),
+        &osiris::consistency::truth::RadarTruth::default(),
+    )
+    .unwrap();
+    let args = osiris::consistency::ConsistencyArgs {
+        meta: files.toml.clone(),
+        out: dir.path().join("out"),
+        simulated: Some(files.simulated.clone()),
+        model: None,
+        enable: vec![],
+        disable: vec![],
+        history: None,
+    };
+    let err = osiris::consistency::cli::run_with_catalogue(&args, Some(&lidar), None)
+        .unwrap_err()
+        .to_string();
     assert!(
-        Catalogue::builtin(CampaignSensor::Radar)
-            .unwrap()
-            .get(id)
-            .is_none()
+        err.contains("lidar catalogue") && err.contains("radar campaign"),
+        "{err}"
     );
     // The documentation of a registered effect is serialised with the catalogue.
     let json = serde_json::to_value(&c).unwrap();

@@ -8,8 +8,9 @@
 //!    to the measured trace as a hidden effect;
 //! 2. `osiris consistency` with the built-in catalogue: the effect is not in it, so the misfit is
 //!    not explained;
-//! 3. the same run with [`BumperEdgeBlockage`] registered ([`Catalogue::register`]) and installed
-//!    ([`Catalogue::install`]): the effect is accepted and its parameter fitted;
+//! 3. the same run with [`BumperEdgeBlockage`] registered ([`Catalogue::register`]) and the
+//!    catalogue passed to the workflow ([`cli::run_with_catalogue`]): the effect is accepted and its
+//!    parameter fitted;
 //! 4. "enabled": the fitted signature corrects the model's SensorData (what a user does before
 //!    implementing the physics in the model) and the run is repeated: the headline error falls.
 
@@ -212,8 +213,11 @@ pub fn demo(dir: &Path, seed: u64) -> Result<Demo> {
     // 3. The effect registered.
     let mut catalogue = Catalogue::builtin(CampaignSensor::Radar)?;
     catalogue.register(Box::new(BumperEdgeBlockage::default()))?;
-    let with = catalogue
-        .install(|| cli::run_with(&args(&files, &files.simulated, &dir.join("with")), None))?;
+    let with = cli::run_with_catalogue(
+        &args(&files, &files.simulated, &dir.join("with")),
+        Some(&catalogue),
+        None,
+    )?;
     let fitted = with
         .effect("radar.bumper_edge_blockage")
         .context("the registered effect was evaluated")?
@@ -232,8 +236,11 @@ pub fn demo(dir: &Path, seed: u64) -> Result<Demo> {
         },
         false,
     )?;
-    let enabled = catalogue
-        .install(|| cli::run_with(&args(&files, &corrected, &dir.join("enabled")), None))?;
+    let enabled = cli::run_with_catalogue(
+        &args(&files, &corrected, &dir.join("enabled")),
+        Some(&catalogue),
+        None,
+    )?;
     Ok(Demo {
         without: outcome(&without),
         with: outcome(&with),

@@ -1221,7 +1221,11 @@ pub fn simulate_frames(
 
 /// The camera branch of `osiris consistency`: loads the frames, re-simulates them (or reads
 /// `--simulated <dir>`), builds the rows and hands them to the common analysis.
-pub fn run_with(args: &ConsistencyArgs, campaign: &Campaign) -> Result<Summary> {
+pub fn run_with(
+    args: &ConsistencyArgs,
+    campaign: &Campaign,
+    catalogue: &super::catalogue::Catalogue,
+) -> Result<Summary> {
     let cc = CameraCampaign::load(campaign, &args.meta)?;
     let mut warnings = campaign.warnings.clone();
     for w in &cc.warnings {
@@ -1299,7 +1303,7 @@ pub fn run_with(args: &ConsistencyArgs, campaign: &Campaign) -> Result<Summary> 
     let paired = pair_frames(&cc, &meas, &sim, hfov)?;
     let mut campaign = campaign.clone();
     campaign.tolerance.roi_mean_dn = mean_tolerance_dn(&campaign, &paired.rows);
-    let summary = super::cli::analyse_paired(&campaign, paired, model, args, warnings)?;
+    let summary = super::cli::analyse_paired(&campaign, catalogue, paired, model, args, warnings)?;
     eprintln!("consistency: {}", summary.status);
     Ok(summary)
 }

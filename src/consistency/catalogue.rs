@@ -339,11 +339,6 @@ impl EffectDoc {
     }
 }
 
-thread_local! {
-    /// Catalogues installed by [`Catalogue::install`] on this thread (innermost last).
-    static INSTALLED: std::cell::RefCell<Vec<Catalogue>> = const { std::cell::RefCell::new(Vec::new()) };
-}
-
 /// A versioned catalogue of one sensor: the built-in TOML entries plus registered effects.
 #[derive(Clone)]
 pub struct Catalogue {
@@ -383,43 +378,14 @@ impl Serialize for Catalogue {
 }
 
 impl Catalogue {
-    /// The built-in catalogue of a sensor kind.
-    ///
-    /// Inside [`Catalogue::install`] on this thread, the installed catalogue of that sensor is
-    /// returned instead (the built-in entries plus the user's registered effects).
+    /// The built-in catalogue of a sensor kind. A catalogue with registered effects is passed to
+    /// the workflow as a value ([`super::cli::run_with_catalogue`]).
     pub fn builtin(kind: CampaignSensor) -> Result<Catalogue> {
-        if let Some(c) = INSTALLED.with(|list| {
-            list.borrow()
-                .iter()
-                .rev()
-                .find(|c| c.sensor == kind.name())
-                .cloned()
-        }) {
-            return Ok(c);
-        }
         match kind {
             CampaignSensor::Radar => Catalogue::parse(RADAR_TOML),
             CampaignSensor::Lidar => Catalogue::parse(LIDAR_TOML),
             CampaignSensor::Camera => Catalogue::parse(CAMERA_TOML),
         }
-    }
-
-    /// Runs `f` with this catalogue in place of the built-in catalogue of its sensor on the
-    /// current thread: `osiris consistency` run as a library inside `f`
-    /// ([`super::cli::run_with`]) attributes with the registered effects too. Scoped: the
-    /// built-in catalogue is back when `f` returns (or panics); other threads are not affected.
-    pub fn install<R>(&self, f: impl FnOnce() -> R) -> R {
-        struct Pop;
-        impl Drop for Pop {
-            fn drop(&mut self) {
-                INSTALLED.with(|list| {
-                    list.borrow_mut().pop();
-                });
-            }
-        }
-        INSTALLED.with(|list| list.borrow_mut().push(self.clone()));
-        let _pop = Pop;
-        f()
     }
 
     /// Adds a user effect (validated; its id must be new). A registered effect takes part in the

@@ -104,14 +104,35 @@ pub(crate) fn switches(args: &ConsistencyArgs) -> Result<osiris_models::effects:
     Ok(sw)
 }
 
-/// The workflow; `simulator` replaces the real model when given. Returns the summary it wrote.
+/// The workflow with the built-in catalogue of the campaign's sensor; `simulator` replaces the
+/// real model when given. Returns the summary it wrote.
 pub fn run_with(args: &ConsistencyArgs, simulator: Option<&mut Simulator<'_>>) -> Result<Summary> {
+    run_with_catalogue(args, None, simulator)
+}
+
+/// The workflow with `catalogue` (e.g. the built-in one plus registered effects,
+/// [`Catalogue::register`]) in place of the built-in catalogue; its sensor must be the campaign's.
+pub fn run_with_catalogue(
+    args: &ConsistencyArgs,
+    catalogue: Option<&Catalogue>,
+    simulator: Option<&mut Simulator<'_>>,
+) -> Result<Summary> {
     let campaign = Campaign::load(&args.meta)?;
     for w in &campaign.warnings {
         eprintln!("warning: {w}");
     }
+    let catalogue = match catalogue {
+        Some(c) if c.sensor != campaign.sensor.kind.name() => bail!(
+            "the {} catalogue cannot attribute a {} campaign (`{}`)",
+            c.sensor,
+            campaign.sensor.kind.name(),
+            args.meta.display()
+        ),
+        Some(c) => c.clone(),
+        None => Catalogue::builtin(campaign.sensor.kind)?,
+    };
     if campaign.sensor.kind == CampaignSensor::Camera {
-        return super::camera::run_with(args, &campaign);
+        return super::camera::run_with(args, &campaign, &catalogue);
     }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create `{}`", args.out.display()))?;
@@ -186,7 +207,9 @@ pub fn run_with(args: &ConsistencyArgs, simulator: Option<&mut Simulator<'_>>) -
             )
         }
     };
-    let summary = analyse(&campaign, &views, &meas, &sim, model_info, args, warnings)?;
+    let summary = analyse(
+        &campaign, &catalogue, &views, &meas, &sim, model_info, args, warnings,
+    )?;
     eprintln!(
         "consistency: {} — {}",
         summary.status,
@@ -465,8 +488,10 @@ fn actions(
 }
 
 /// Pairs, measures, attributes and writes the outputs.
+#[allow(clippy::too_many_arguments)]
 fn analyse(
     campaign: &Campaign,
+    catalogue: &Catalogue,
     views: &[osi3::SensorView],
     meas: &[osi3::SensorData],
     sim: &[osi3::SensorData],
@@ -475,12 +500,13 @@ fn analyse(
     warnings: Vec<String>,
 ) -> Result<Summary> {
     let paired = pairing::pair(campaign, views, meas, sim)?;
-    analyse_paired(campaign, paired, model, args, warnings)
+    analyse_paired(campaign, catalogue, paired, model, args, warnings)
 }
 
 /// Metrics, attribution and outputs of paired rows (also the camera branch, `camera.rs`).
 pub(crate) fn analyse_paired(
     campaign: &Campaign,
+    catalogue: &Catalogue,
     paired: pairing::Paired,
     model: ModelInfo,
     args: &ConsistencyArgs,
@@ -545,7 +571,6 @@ pub(crate) fn analyse_paired(
             ("reflectivity", super::V_REFLECTIVITY, &b.reflectivity_pct),
         ));
     }
-    let catalogue = Catalogue::builtin(campaign.sensor.kind)?;
     eprintln!(
         "consistency: attribution over {} catalogue effects",
         catalogue.effects.len()
@@ -557,7 +582,7 @@ pub(crate) fn analyse_paired(
         .filter(|r| !holdout.contains(r))
         .copied()
         .collect();
-    let attribution = attribution::attribute(campaign, &catalogue, &train);
+    let attribution = attribution::attribute(campaign, catalogue, &train);
     // Headline errors: RMS after removing the calibration offset fitted on the training split (the
     // offset is a nuisance, reported in `attribution[].calibration_offset`, not an error to chase).
     let offset_of = |q: &str| -> f64 {
@@ -588,7 +613,7 @@ pub(crate) fn analyse_paired(
             holdout_error.insert(q.to_string(), v);
         }
     }
-    let actions = actions(&catalogue, &attribution, &paired.rows, &holdout, args);
+    let actions = actions(catalogue, &attribution, &paired.rows, &holdout, args);
     let statuses: Vec<Status> = attribution.iter().map(|a| a.status).collect();
     let mut status = if statuses.is_empty() {
         if metric_list.iter().all(|m| m.pass) {
