@@ -427,11 +427,7 @@ pub fn two_ray_factor(sensor: DVec3, apex: DVec3, eps: C64) -> C64 {
     let k = 2.0 * PI / radar_lambda();
     let g = field_pattern(th_img, EL_BW_DEG) / field_pattern(th_dir, EL_BW_DEG);
     let gamma = fresnel_h(psi, eps);
-    C64::new(1.0, 0.0).add(
-        gamma
-            .mul(C64::expj(-k * (r_r - r_d)))
-            .scale(g * r_d / r_r),
-    )
+    C64::new(1.0, 0.0).add(gamma.mul(C64::expj(-k * (r_r - r_d))).scale(g * r_d / r_r))
 }
 
 /// The physics switches of one radar simulation.
@@ -567,9 +563,7 @@ fn radar_design(case: RadarCase, rng: &mut Rng) -> RadarDesign {
             for k in 0..45usize {
                 let r = 10.0 + 20.0 * (k / 9) as f64 / 4.0;
                 stations.push(RadarStation {
-                    placed: (0..3)
-                        .map(|i| (i, r, az[(3 * i + k) % 9]))
-                        .collect(),
+                    placed: (0..3).map(|i| (i, r, az[(3 * i + k) % 9])).collect(),
                 });
             }
             RadarDesign {
@@ -756,7 +750,8 @@ pub fn radar_campaign(case: RadarCase, seed: u64, dir: &Path) -> anyhow::Result<
                     let rel_t = apex_true - sensor;
                     let r_m = rel_t.length() + 0.04 * rng.normal();
                     let az_m = rel_t.y.atan2(rel_t.x) + (0.2f64).to_radians() * rng.normal();
-                    let el_m = (rel_t.z / rel_t.length()).asin() + (0.5f64).to_radians() * rng.normal();
+                    let el_m =
+                        (rel_t.z / rel_t.length()).asin() + (0.5f64).to_radians() * rng.normal();
                     let value = ((report(snr_m, r_m) + cal_db) * 2.0).round() / 2.0;
                     m_dets.push(osi3::RadarDetection {
                         position: Some(osi3::Spherical3d {
@@ -947,9 +942,20 @@ pub fn overlap(range_m: f64) -> f64 {
     if d <= (rr - rt).abs() {
         return (rt.min(rr) / rt).powi(2);
     }
-    let a1 = rt * rt * ((d * d + rt * rt - rr * rr) / (2.0 * d * rt)).clamp(-1.0, 1.0).acos();
-    let a2 = rr * rr * ((d * d + rr * rr - rt * rt) / (2.0 * d * rr)).clamp(-1.0, 1.0).acos();
-    let a3 = 0.5 * ((-d + rt + rr) * (d + rt - rr) * (d - rt + rr) * (d + rt + rr)).max(0.0).sqrt();
+    let a1 = rt
+        * rt
+        * ((d * d + rt * rt - rr * rr) / (2.0 * d * rt))
+            .clamp(-1.0, 1.0)
+            .acos();
+    let a2 = rr
+        * rr
+        * ((d * d + rr * rr - rt * rt) / (2.0 * d * rr))
+            .clamp(-1.0, 1.0)
+            .acos();
+    let a3 = 0.5
+        * ((-d + rt + rr) * (d + rt - rr) * (d - rt + rr) * (d + rt + rr))
+            .max(0.0)
+            .sqrt();
     ((a1 + a2 - a3) / (PI * rt * rt)).clamp(0.0, 1.0)
 }
 
@@ -1007,8 +1013,8 @@ fn lidar_design(case: LidarCase, rng: &mut Rng) -> LidarDesign {
     match case {
         LidarCase::Overlap => {
             let ranges = [
-                2.0, 2.25, 2.5, 2.75, 3.0, 3.25, 3.5, 4.0, 4.5, 5.0, 6.0, 7.0, 8.0, 10.0, 12.0, 15.0,
-                20.0, 25.0,
+                2.0, 2.25, 2.5, 2.75, 3.0, 3.25, 3.5, 4.0, 4.5, 5.0, 6.0, 7.0, 8.0, 10.0, 12.0,
+                15.0, 20.0, 25.0,
             ];
             LidarDesign {
                 boards: vec![
@@ -1066,7 +1072,11 @@ fn lidar_design(case: LidarCase, rng: &mut Rng) -> LidarDesign {
             }
             let mut stations = triple(&ranges, 1.5);
             for st in triple(&ranges, 1.5) {
-                stations.push(st.into_iter().map(|(i, r, a)| (i + 3, r + 2.5, a)).collect());
+                stations.push(
+                    st.into_iter()
+                        .map(|(i, r, a)| (i + 3, r + 2.5, a))
+                        .collect(),
+                );
             }
             LidarDesign {
                 boards,
@@ -1189,7 +1199,11 @@ pub fn lidar_campaign(case: LidarCase, seed: u64, dir: &Path) -> anyhow::Result<
     let cal_db = rng.range(-1.0, 1.0);
     let range_offset = rng.range(-0.02, 0.02);
     let pos_sigma = 0.01;
-    let height_err: Vec<f64> = design.boards.iter().map(|_| rng.range(-0.02, 0.02)).collect();
+    let height_err: Vec<f64> = design
+        .boards
+        .iter()
+        .map(|_| rng.range(-0.02, 0.02))
+        .collect();
 
     let mut views = Vec::new();
     let mut meas = Vec::new();
@@ -1241,8 +1255,9 @@ pub fn lidar_campaign(case: LidarCase, seed: u64, dir: &Path) -> anyhow::Result<
                         continue;
                     }
                     let r_m = ret.range + range_offset + 0.02 * rng.normal();
-                    let intensity =
-                        (100.0 * p * ret.range * ret.range * undb(cal_db)).round().clamp(0.0, 255.0);
+                    let intensity = (100.0 * p * ret.range * ret.range * undb(cal_db))
+                        .round()
+                        .clamp(0.0, 255.0);
                     m_dets.push(osi3::LidarDetection {
                         beam_id: ident(ret.beam),
                         position: spherical(ret.dir * r_m),
