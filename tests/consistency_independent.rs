@@ -1,0 +1,304 @@
+//! Hidden-effect protocol (validation.md §8) on campaigns from a second, independent truth
+//! generator (`tests/support/independent_truth.rs`, GitHub issue 15): per case and seed, the
+//! workflow must name the hidden effect (alone, or within its tie group), call the null case
+//! CONSISTENT and the out-of-catalogue case UNEXPLAINED / PARTIALLY_EXPLAINED.
+//!
+//! Seeds: `OSIRIS_INDEPENDENT_SEEDS="1,2,3"` overrides the CI default. Each run prints one table
+//! row per case and seed (`cargo test --test consistency_independent -- --nocapture`).
+
+#[path = "support/independent_truth.rs"]
+mod independent_truth;
+
+use independent_truth::{LidarCase, RadarCase, Written};
+use osiris::consistency::ConsistencyArgs;
+use osiris::consistency::cli::run_with;
+use osiris::consistency::report::Summary;
+
+const DEFAULT_SEEDS: [u64; 3] = [1501, 1502, 1503];
+
+fn seeds() -> Vec<u64> {
+    std::env::var("OSIRIS_INDEPENDENT_SEEDS")
+        .ok()
+        .map(|s| {
+            s.split(',')
+                .filter_map(|x| x.trim().parse().ok())
+                .collect::<Vec<u64>>()
+        })
+        .filter(|v| !v.is_empty())
+        .unwrap_or_else(|| DEFAULT_SEEDS.to_vec())
+}
+
+/// TEMPORARY (until the catalogue rename of the main worktree lands here): the old id of the
+/// spreading effect under its new name. Remove once `radar.toml` says `radar.two_way_spreading`.
+fn canonical(id: &str) -> String {
+    match id {
+        "radar.spreading_exponent" => "radar.two_way_spreading".into(),
+        other => other.into(),
+    }
+}
+
+/// What came out of one run, ids canonical.
+struct Outcome {
+    status: String,
+    accepted: Vec<String>,
+    /// Tie groups (canonical member ids).
+    ties: Vec<Vec<String>>,
+}
+
+impl Outcome {
+    fn from(s: &Summary) -> Outcome {
+        Outcome {
+            status: s.status.clone(),
+            accepted: s.accepted().iter().map(|a| canonical(a)).collect(),
+            ties: s
+                .tie_groups
+                .iter()
+                .map(|t| t.members.iter().map(|m| canonical(m)).collect())
+                .collect(),
+        }
+    }
+
+    /// The effects tied with `id` (including itself).
+    fn tied_with(&self, id: &str) -> Vec<String> {
+        let mut out = vec![id.to_string()];
+        for g in &self.ties {
+            if g.iter().any(|m| m == id) {
+                out.extend(g.iter().cloned());
+            }
+        }
+        out
+    }
+
+    /// The hidden effect is named: it is accepted or tied with an accepted effect, and every
+    /// accepted effect is it or tied with it.
+    fn names(&self, expected: &str) -> bool {
+        let group = self.tied_with(expected);
+        !self.accepted.is_empty()
+            && self.accepted.iter().any(|a| group.contains(a))
+            && self.accepted.iter().all(|a| group.contains(a))
+    }
+}
+
+fn run(w: &Written, out: &std::path::Path) -> Summary {
+    let args = ConsistencyArgs {
+        meta: w.meta.clone(),
+        out: out.to_path_buf(),
+        simulated: Some(w.model_trace.clone()),
+        model: None,
+        enable: vec![],
+        disable: vec![],
+        history: None,
+    };
+    run_with(&args, None).expect("the workflow runs")
+}
+
+enum Expect {
+    Effect(&'static str),
+    Consistent,
+    NotConfident,
+}
+
+impl Expect {
+    fn text(&self) -> String {
+        match self {
+            Expect::Effect(e) => format!("{e} (alone or in its tie group)"),
+            Expect::Consistent => "CONSISTENT".into(),
+            Expect::NotConfident => "UNEXPLAINED / PARTIALLY_EXPLAINED".into(),
+        }
+    }
+
+    fn holds(&self, o: &Outcome) -> bool {
+        match self {
+            Expect::Effect(e) => {
+                o.names(e) && ["EXPLAINED", "PARTIALLY_EXPLAINED"].contains(&o.status.as_str())
+            }
+            Expect::Consistent => o.status == "CONSISTENT" && o.accepted.is_empty(),
+            Expect::NotConfident => {
+                ["UNEXPLAINED", "PARTIALLY_EXPLAINED"].contains(&o.status.as_str())
+            }
+        }
+    }
+}
+
+/// Runs one case over the seeds, prints the table rows, and fails listing every miss.
+fn protocol(
+    sensor: &str,
+    case: &str,
+    expect: Expect,
+    generate: impl Fn(u64, &std::path::Path) -> anyhow::Result<Written>,
+) {
+    let mut misses = Vec::new();
+    for seed in seeds() {
+        let tmp = tempfile::tempdir().unwrap();
+        // `OSIRIS_INDEPENDENT_KEEP=<folder>` keeps the campaigns and reports there.
+        let root = match std::env::var_os("OSIRIS_INDEPENDENT_KEEP") {
+            Some(k) => std::path::PathBuf::from(k).join(format!("{sensor}-{case}-{seed}")),
+            None => tmp.path().to_path_buf(),
+        };
+        let t0 = std::time::Instant::now();
+        let w = generate(seed, &root.join("campaign")).expect("campaign written");
+        let summary = run(&w, &root.join("out"));
+        let o = Outcome::from(&summary);
+        let ok = expect.holds(&o);
+        let row = format!(
+            "| {sensor} | {case} | {seed} | {} | {} | {} | {} | {:.1} s |",
+            o.status,
+            if o.accepted.is_empty() {
+                "-".to_string()
+            } else {
+                o.accepted.join(", ")
+            },
+            expect.text(),
+            if ok { "ok" } else { "MISS" },
+            t0.elapsed().as_secs_f64()
+        );
+        println!("{row}");
+        if !ok {
+            let ties: Vec<String> = o.ties.iter().map(|g| g.join("~")).collect();
+            misses.push(format!(
+                "{row} ties [{}]; frames {} (dropped {}); warnings {:?}",
+                ties.join("; "),
+                w.frames,
+                w.dropped_frames,
+                summary.warnings
+            ));
+        }
+    }
+    assert!(misses.is_empty(), "{}", misses.join("\n"));
+}
+
+fn radar(case: RadarCase, expect: Expect) {
+    protocol("radar", case.name(), expect, |seed, dir| {
+        independent_truth::radar_campaign(case, seed, dir)
+    });
+}
+
+fn lidar(case: LidarCase, expect: Expect) {
+    protocol("lidar", case.name(), expect, |seed, dir| {
+        independent_truth::lidar_campaign(case, seed, dir)
+    });
+}
+
+#[test]
+#[ignore = "workflow defect: radar.ground_multipath is the one-way, Γ = −1, single-target-height form; the two-way |F|⁴ with Fresnel Γ_H over 3 reflector heights comes out UNEXPLAINED (multipath has the best ΔBIC but fails the CV and 20 % excess-χ² gates)"]
+fn radar_ground_multipath() {
+    radar(
+        RadarCase::GroundMultipath,
+        Expect::Effect("radar.ground_multipath"),
+    );
+}
+
+#[test]
+fn radar_two_way_spreading() {
+    radar(
+        RadarCase::TwoWaySpreading,
+        Expect::Effect("radar.two_way_spreading"),
+    );
+}
+
+#[test]
+fn radar_rcs_area_scaling() {
+    radar(
+        RadarCase::RcsAreaScaling,
+        Expect::Effect("radar.rcs_area_scaling"),
+    );
+}
+
+#[test]
+fn radar_antenna_pattern() {
+    radar(
+        RadarCase::AntennaPattern,
+        Expect::Effect("radar.antenna_pattern"),
+    );
+}
+
+#[test]
+fn radar_rain() {
+    radar(RadarCase::Rain, Expect::Effect("radar.rain_attenuation"));
+}
+
+#[test]
+fn radar_null() {
+    radar(RadarCase::Null, Expect::Consistent);
+}
+
+#[test]
+fn radar_out_of_catalogue() {
+    radar(RadarCase::OutOfCatalogue, Expect::NotConfident);
+}
+
+#[test]
+fn lidar_overlap() {
+    lidar(LidarCase::Overlap, Expect::Effect("lidar.overlap_function"));
+}
+
+#[test]
+fn lidar_fog() {
+    lidar(LidarCase::Fog, Expect::Effect("lidar.fog_extinction"));
+}
+
+#[test]
+fn lidar_vertical_divergence() {
+    lidar(
+        LidarCase::VerticalDivergence,
+        Expect::Effect("lidar.vertical_divergence"),
+    );
+}
+
+#[test]
+#[ignore = "workflow defect: the null LiDAR campaign comes out UNEXPLAINED: intensity_db χ²/dof ≈ 4.7 (board-edge footprint fractions move with the ±2 cm GT height error) and points_log_ratio χ²/dof ≈ 2.3 (ring counts at the board edges, threshold noise); GT uncertainty is not propagated into edge intensities or point counts"]
+fn lidar_null() {
+    lidar(LidarCase::Null, Expect::Consistent);
+}
+
+#[test]
+fn lidar_out_of_catalogue() {
+    lidar(LidarCase::OutOfCatalogue, Expect::NotConfident);
+}
+
+/// Closed-form checks of the generator itself against the reference values of physics.md and
+/// validation.md §9.
+#[test]
+fn generator_physics_reference_values() {
+    use independent_truth::*;
+    // Trihedral RCS at 77 GHz: 10 cm → 27.6 m² (14.4 dBsm), 15 cm → 139.9 m².
+    assert!((trihedral_rcs(0.10) - 27.6).abs() < 0.2);
+    assert!((trihedral_rcs(0.15) - 139.9).abs() < 1.0);
+    // ITU-R P.838-3 at 77 GHz, H: 10 mm/h → 5.91 dB/km, 50 → 18.8, 100 → 30.8.
+    assert!((rain_db_per_km(10.0) - 5.91).abs() < 0.02);
+    assert!((rain_db_per_km(50.0) - 18.8).abs() < 0.1);
+    assert!((rain_db_per_km(100.0) - 30.8).abs() < 0.1);
+    // Fresnel H for ε = 4 − 0.2j, h = 0.5 m both ends: |Γ_H| = 0.89 / 0.94 / 0.98 at 10 / 20 / 50 m.
+    for (d, want) in [(10.0, 0.89), (20.0, 0.94), (50.0, 0.98)] {
+        let psi = (1.0f64 / d).atan();
+        let g = fresnel_h(psi, C64::new(4.0, -0.2)).abs();
+        assert!((g - want).abs() < 0.011, "|Γ_H| at {d} m = {g}");
+    }
+    // Two-ray: at grazing incidence Γ_H → −1, so |F| → 2|sin(kΔR/2)| (the flat-earth lobing of
+    // Skolnik §2.11) with ΔR the exact path difference; 2 km, both ends at 0.5 m: kΔR ≈ 0.40 rad.
+    let (s, t) = (
+        glam::DVec3::new(0.0, 0.0, 0.5),
+        glam::DVec3::new(2000.0, 0.0, 0.5),
+    );
+    let dr = (2000.0f64.hypot(1.0) - 2000.0) * 2.0 * std::f64::consts::PI / (299_792_458.0 / 77e9);
+    let f = two_ray_factor(s, t, EPS_ASPHALT).abs();
+    assert!(
+        (f - 2.0 * (dr / 2.0).sin()).abs() < 0.01,
+        "|F| at 2 km = {f}"
+    );
+    // Overlap (physics.md §2.3 example): 0 below 1.5 m, ≈ 0.2 at 2 m, ≈ 0.7 at 3 m, ≈ 0.97 at 4 m,
+    // 1 beyond 5 m.
+    assert_eq!(overlap(1.4), 0.0);
+    assert!((overlap(2.0) - 0.2).abs() < 0.06, "O(2) = {}", overlap(2.0));
+    assert!((overlap(3.0) - 0.7).abs() < 0.06, "O(3) = {}", overlap(3.0));
+    assert!(
+        (overlap(4.0) - 0.97).abs() < 0.03,
+        "O(4) = {}",
+        overlap(4.0)
+    );
+    assert!((overlap(6.0) - 1.0).abs() < 1e-9);
+    // Fog: V = 50 m → 340 dB/km one-way (validation.md §9(b)); V = 200 m → 85 dB/km.
+    let db_km = |v: f64| 10.0 * std::f64::consts::E.log10() * fog_extinction_per_m(v) * 1000.0;
+    assert!((db_km(50.0) - 340.0).abs() < 1.0);
+    assert!((db_km(200.0) - 85.0).abs() < 0.5);
+}

@@ -1,0 +1,1350 @@
+//! A second, independent truth generator for the consistency workflow (GitHub issue 15).
+//!
+//! Written from the closed forms of `shared/reference/physics.md` (radar §1, LiDAR §2) and the
+//! hidden-effect protocol of `shared/reference/validation.md` §8, without looking at the workflow's
+//! own generator (`src/consistency/truth*.rs`) or at the effect catalogue's signatures: it shares
+//! no physics code with the model or the catalogue, only the OSI messages and the trace writer.
+//!
+//! Each campaign is a folder with
+//! * `sv.osi`: the SensorView trace (ground truth as a surveyor would log it: position jitter,
+//!   target heights off by up to ±2 cm);
+//! * `meas.osi`: the "measured" SensorData (the true geometry, every effect of the case, and the
+//!   nuisances: Rician fluctuation and thermal noise / intensity noise, quantisation, an unknown
+//!   calibration offset, ~10 % of the frames missing, no object ids);
+//! * `model.osi`: the "model" SensorData, computed from the logged ground truth with the same
+//!   physics minus the case's hidden effect (deterministic, with object ids);
+//! * `consistency.toml` (schema `osiris.consistency/1`).
+//!
+//! Radar: triangular trihedrals (σ = 4πa⁴/(3λ²), Knott et al.) on posts, re-aimed at the sensor at
+//! every station, seen by a 77 GHz radar on a parked host; SNR from the link budget of physics.md
+//! §1.1 (worked example: 10 m² at 100 m → 25.8 dB after the FFT and beamforming gains), a CFAR-like
+//! threshold of 13 dB (censors detections in deep multipath nulls), Rician fluctuation (a
+//! non-fluctuating reflector plus a diffuse clutter/interference phasor of −16.5 dB) and complex
+//! thermal noise added in the linear domain before dB. Reported power: an RCS estimate (the SNR
+//! range-compensated with R⁴ at the measured range, boresight gain) or the SNR, per the case.
+//!
+//! LiDAR: Lambertian boards, free-standing (no post in the beam), facing the sensor, seen by a
+//! 905 nm spinning LiDAR (0.2° rings, 0.4° columns, top-hat footprint 1.5 × 3 mrad), received
+//! power P ∝ f·ρ·cosα·O(R)·T²/R² (physics.md §2.1, extended target) with f the fraction of the
+//! footprint on the board; detection above a fixed threshold (a 10 % board is detected up to 100 m
+//! in clear air), reported intensity = range-compensated reflectivity in % (1 DN quantisation).
+//!
+//! Constants marked GUESSED are not from a data sheet.
+
+#![allow(dead_code)]
+
+use std::f64::consts::PI;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+use osiris::trace::OsiTraceWriter;
+use osiris_proto::osi3;
+
+// ---------------------------------------------------------------------------------------------
+// Random numbers (SplitMix64 + Box–Muller): no dependency, reproducible per seed.
+
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Rng {
+        Rng(seed ^ 0x5DEE_CE66_D1CE_4E5B)
+    }
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in [0, 1).
+    pub fn uniform(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    pub fn range(&mut self, a: f64, b: f64) -> f64 {
+        a + (b - a) * self.uniform()
+    }
+    /// Standard normal.
+    pub fn normal(&mut self) -> f64 {
+        let u1 = self.uniform().max(1e-300);
+        let u2 = self.uniform();
+        (-2.0 * u1.ln()).sqrt() * (2.0 * PI * u2).cos()
+    }
+    /// Circular complex Gaussian with E|z|² = 1.
+    pub fn cnormal(&mut self) -> C64 {
+        C64::new(self.normal(), self.normal()).scale(std::f64::consts::FRAC_1_SQRT_2)
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Complex arithmetic (the two-ray sum and the Fresnel coefficient).
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct C64 {
+    pub re: f64,
+    pub im: f64,
+}
+
+impl C64 {
+    pub const fn new(re: f64, im: f64) -> C64 {
+        C64 { re, im }
+    }
+    pub fn expj(phi: f64) -> C64 {
+        C64::new(phi.cos(), phi.sin())
+    }
+    pub fn add(self, o: C64) -> C64 {
+        C64::new(self.re + o.re, self.im + o.im)
+    }
+    pub fn sub(self, o: C64) -> C64 {
+        C64::new(self.re - o.re, self.im - o.im)
+    }
+    pub fn mul(self, o: C64) -> C64 {
+        C64::new(
+            self.re * o.re - self.im * o.im,
+            self.re * o.im + self.im * o.re,
+        )
+    }
+    pub fn div(self, o: C64) -> C64 {
+        let d = o.re * o.re + o.im * o.im;
+        C64::new(
+            (self.re * o.re + self.im * o.im) / d,
+            (self.im * o.re - self.re * o.im) / d,
+        )
+    }
+    pub fn scale(self, s: f64) -> C64 {
+        C64::new(self.re * s, self.im * s)
+    }
+    pub fn norm_sqr(self) -> f64 {
+        self.re * self.re + self.im * self.im
+    }
+    pub fn abs(self) -> f64 {
+        self.norm_sqr().sqrt()
+    }
+    /// Principal square root.
+    pub fn sqrt(self) -> C64 {
+        let r = self.abs();
+        let re = ((r + self.re) * 0.5).max(0.0).sqrt();
+        let im = ((r - self.re) * 0.5).max(0.0).sqrt();
+        C64::new(re, if self.im < 0.0 { -im } else { im })
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// OSI helpers.
+
+fn ident(v: u64) -> Option<osi3::Identifier> {
+    Some(osi3::Identifier { value: Some(v) })
+}
+
+fn stamp(t_ns: u64) -> Option<osi3::Timestamp> {
+    Some(osi3::Timestamp {
+        seconds: Some((t_ns / 1_000_000_000) as i64),
+        nanos: Some((t_ns % 1_000_000_000) as u32),
+    })
+}
+
+fn v3(p: DVec3) -> Option<osi3::Vector3d> {
+    Some(osi3::Vector3d {
+        x: Some(p.x),
+        y: Some(p.y),
+        z: Some(p.z),
+    })
+}
+
+fn yaw_only(yaw: f64) -> Option<osi3::Orientation3d> {
+    Some(osi3::Orientation3d {
+        roll: Some(0.0),
+        pitch: Some(0.0),
+        yaw: Some(yaw),
+    })
+}
+
+const HOST_ID: u64 = 1;
+const SENSOR_ID: u64 = 10;
+/// Host box: 4.5 × 1.8 × 1.5 m, centre at the origin's rear so the sensor sits at x = 0 on the
+/// front bumper / roof edge.
+const HOST_LEN: f64 = 4.5;
+const HOST_H: f64 = 1.5;
+const FRAME_DT_NS: u64 = 100_000_000;
+
+/// The sensor mounting relative to the host's box centre (no `bbcenter_to_rear`: the host frame is
+/// the box centre), for a sensor at global (0, 0, h).
+fn mounting(h: f64) -> osi3::MountingPosition {
+    osi3::MountingPosition {
+        position: v3(DVec3::new(HOST_LEN / 2.0, 0.0, h - HOST_H / 2.0)),
+        orientation: yaw_only(0.0),
+    }
+}
+
+fn host_object() -> osi3::MovingObject {
+    osi3::MovingObject {
+        id: ident(HOST_ID),
+        base: Some(osi3::BaseMoving {
+            dimension: Some(osi3::Dimension3d {
+                length: Some(HOST_LEN),
+                width: Some(1.8),
+                height: Some(HOST_H),
+            }),
+            position: v3(DVec3::new(-HOST_LEN / 2.0, 0.0, HOST_H / 2.0)),
+            orientation: yaw_only(0.0),
+            velocity: v3(DVec3::ZERO),
+            ..Default::default()
+        }),
+        r#type: Some(2), // TYPE_VEHICLE
+        ..Default::default()
+    }
+}
+
+/// One logged stationary object: box centre, box size (length, width, height), yaw, reference.
+struct LoggedBox {
+    id: u64,
+    centre: DVec3,
+    dims: DVec3,
+    yaw: f64,
+    model_reference: String,
+}
+
+fn sensor_view(frame: u64, h_sensor: f64, boxes: &[LoggedBox]) -> osi3::SensorView {
+    let t = frame * FRAME_DT_NS;
+    let stationary = boxes
+        .iter()
+        .map(|b| osi3::StationaryObject {
+            id: ident(b.id),
+            base: Some(osi3::BaseStationary {
+                dimension: Some(osi3::Dimension3d {
+                    length: Some(b.dims.x),
+                    width: Some(b.dims.y),
+                    height: Some(b.dims.z),
+                }),
+                position: v3(b.centre),
+                orientation: yaw_only(b.yaw),
+                ..Default::default()
+            }),
+            model_reference: Some(b.model_reference.clone()),
+            ..Default::default()
+        })
+        .collect();
+    osi3::SensorView {
+        timestamp: stamp(t),
+        sensor_id: ident(SENSOR_ID),
+        mounting_position: Some(mounting(h_sensor)),
+        host_vehicle_id: ident(HOST_ID),
+        global_ground_truth: Some(osi3::GroundTruth {
+            timestamp: stamp(t),
+            host_vehicle_id: ident(HOST_ID),
+            moving_object: vec![host_object()],
+            stationary_object: stationary,
+            ..Default::default()
+        }),
+        ..Default::default()
+    }
+}
+
+fn sensor_data_radar(
+    frame: u64,
+    h_sensor: f64,
+    dets: Vec<osi3::RadarDetection>,
+) -> osi3::SensorData {
+    osi3::SensorData {
+        timestamp: stamp(frame * FRAME_DT_NS),
+        sensor_id: ident(SENSOR_ID),
+        mounting_position: Some(mounting(h_sensor)),
+        feature_data: Some(osi3::FeatureData {
+            radar_sensor: vec![osi3::RadarDetectionData {
+                detection: dets,
+                ..Default::default()
+            }],
+            ..Default::default()
+        }),
+        ..Default::default()
+    }
+}
+
+fn sensor_data_lidar(
+    frame: u64,
+    h_sensor: f64,
+    dets: Vec<osi3::LidarDetection>,
+) -> osi3::SensorData {
+    osi3::SensorData {
+        timestamp: stamp(frame * FRAME_DT_NS),
+        sensor_id: ident(SENSOR_ID),
+        mounting_position: Some(mounting(h_sensor)),
+        feature_data: Some(osi3::FeatureData {
+            lidar_sensor: vec![osi3::LidarDetectionData {
+                detection: dets,
+                ..Default::default()
+            }],
+            ..Default::default()
+        }),
+        ..Default::default()
+    }
+}
+
+fn spherical(p: DVec3) -> Option<osi3::Spherical3d> {
+    let r = p.length();
+    Some(osi3::Spherical3d {
+        distance: Some(r),
+        azimuth: Some(p.y.atan2(p.x)),
+        elevation: Some((p.z / r).asin()),
+    })
+}
+
+fn write_trace<M: prost::Message>(path: &Path, msgs: &[M]) -> anyhow::Result<()> {
+    let mut w = OsiTraceWriter::create(path)?;
+    for m in msgs {
+        w.write_message(m)?;
+    }
+    w.finish()?;
+    Ok(())
+}
+
+/// What a generated campaign is.
+#[derive(Debug, Clone)]
+pub struct Written {
+    /// `consistency.toml`.
+    pub meta: PathBuf,
+    /// The model's SensorData trace (for `--simulated`).
+    pub model_trace: PathBuf,
+    /// The hidden effect, as a short description (the answer key stays with the test).
+    pub hidden: String,
+    pub frames: usize,
+    pub dropped_frames: usize,
+}
+
+fn db(x: f64) -> f64 {
+    10.0 * x.log10()
+}
+
+fn undb(x: f64) -> f64 {
+    10f64.powf(x / 10.0)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Radar.
+
+/// Hidden-effect cases of the radar campaigns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RadarCase {
+    /// Two-ray road multipath, two-way (measured ×|F|⁴).
+    GroundMultipath,
+    /// The model spreads with R⁻² instead of R⁻⁴.
+    TwoWaySpreading,
+    /// The model's RCS ∝ face area¹ instead of area².
+    RcsAreaScaling,
+    /// The measurement has the Gaussian azimuth pattern, the model an isotropic antenna.
+    AntennaPattern,
+    /// ITU-R P.838-3 rain attenuation at 77 GHz, two-way.
+    Rain,
+    /// Nothing hidden.
+    Null,
+    /// Range-FFT scalloping (no window, no peak interpolation): not in the catalogue.
+    OutOfCatalogue,
+}
+
+impl RadarCase {
+    pub const ALL: [RadarCase; 7] = [
+        RadarCase::GroundMultipath,
+        RadarCase::TwoWaySpreading,
+        RadarCase::RcsAreaScaling,
+        RadarCase::AntennaPattern,
+        RadarCase::Rain,
+        RadarCase::Null,
+        RadarCase::OutOfCatalogue,
+    ];
+    pub fn name(self) -> &'static str {
+        match self {
+            RadarCase::GroundMultipath => "ground_multipath",
+            RadarCase::TwoWaySpreading => "two_way_spreading",
+            RadarCase::RcsAreaScaling => "rcs_area_scaling",
+            RadarCase::AntennaPattern => "antenna_pattern",
+            RadarCase::Rain => "rain",
+            RadarCase::Null => "null",
+            RadarCase::OutOfCatalogue => "out_of_catalogue",
+        }
+    }
+}
+
+/// 77 GHz.
+pub const RADAR_FREQ_HZ: f64 = 77.0e9;
+pub const C0: f64 = 299_792_458.0;
+/// λ at 77 GHz, m (3.893 mm).
+pub fn radar_lambda() -> f64 {
+    C0 / RADAR_FREQ_HZ
+}
+/// SNR of σ = 10 m² at 100 m after range/Doppler FFT and 12-channel beamforming, dB (physics.md
+/// §1.1 worked example: 15.0 + 10.8).
+pub const SNR_REF_DB: f64 = 25.8;
+/// CFAR-like detection threshold on the SNR, dB (CA-CFAR N = 24 at P_FA 1e-6 needs 12.7 dB: §1.7).
+pub const DET_THRESHOLD_DB: f64 = 13.0;
+/// One-way 3 dB beamwidths, deg (GUESSED: a typical long/mid-range automotive radar).
+pub const AZ_BW_DEG: f64 = 20.0;
+pub const EL_BW_DEG: f64 = 12.0;
+/// Road (asphalt) relative permittivity at 77 GHz (GUESSED, after Sarabandi et al. 1997, UNVERIFIED
+/// in physics.md §1.3); e^{jωt} convention: ε' − jε''.
+pub const EPS_ASPHALT: C64 = C64::new(3.18, -0.1);
+/// ITU-R P.838-3 at 77 GHz, horizontal polarisation (physics.md §1.4).
+pub const RAIN_K_H: f64 = 1.1320;
+pub const RAIN_ALPHA_H: f64 = 0.7177;
+/// Range resolution c/(2B) for B = 1 GHz, m (the scalloping period of the out-of-catalogue case).
+pub const RANGE_BIN_M: f64 = C0 / 2.0 / 1.0e9;
+/// Sensor mounting height, m (front bumper).
+pub const RADAR_MOUNT_H: f64 = 0.5;
+
+/// ITU-R P.838-3 specific attenuation, one-way dB/km, horizontal polarisation, horizontal path.
+pub fn rain_db_per_km(rain_mm_h: f64) -> f64 {
+    RAIN_K_H * rain_mm_h.powf(RAIN_ALPHA_H)
+}
+
+/// GO peak RCS of a triangular trihedral of edge a, m².
+pub fn trihedral_rcs(edge_m: f64) -> f64 {
+    4.0 * PI * edge_m.powi(4) / (3.0 * radar_lambda().powi(2))
+}
+
+/// Fresnel reflection coefficient for horizontal (TE, E parallel to the road) polarisation at
+/// grazing angle ψ (physics.md §1.3).
+pub fn fresnel_h(psi: f64, eps: C64) -> C64 {
+    let s = C64::new(psi.sin(), 0.0);
+    let root = eps.sub(C64::new(psi.cos().powi(2), 0.0)).sqrt();
+    s.sub(root).div(s.add(root))
+}
+
+/// One-way Gaussian field (voltage) pattern: power pattern exp(−4 ln2 (θ/θ₃)²).
+fn field_pattern(theta_deg: f64, bw_deg: f64) -> f64 {
+    (-2.0 * 2f64.ln() * (theta_deg / bw_deg).powi(2)).exp()
+}
+
+/// The one-way pattern-propagation factor of the two-ray model, from the sensor phase centre to the
+/// reflector's apex (phase centre) over a flat road at z = 0:
+/// F = 1 + Γ(ψ)·(g(θ_img)/g(θ_dir))·(R_d/R_r)·e^{−jk(R_r − R_d)}.
+pub fn two_ray_factor(sensor: DVec3, apex: DVec3, eps: C64) -> C64 {
+    let d = (apex - sensor).truncate().length();
+    let (hs, ht) = (sensor.z, apex.z);
+    let r_d = (d * d + (ht - hs).powi(2)).sqrt();
+    let r_r = (d * d + (ht + hs).powi(2)).sqrt();
+    let psi = ((ht + hs) / d).atan();
+    let th_dir = ((ht - hs) / d).atan().to_degrees();
+    let th_img = (-(ht + hs) / d).atan().to_degrees();
+    let k = 2.0 * PI / radar_lambda();
+    let g = field_pattern(th_img, EL_BW_DEG) / field_pattern(th_dir, EL_BW_DEG);
+    let gamma = fresnel_h(psi, eps);
+    C64::new(1.0, 0.0).add(gamma.mul(C64::expj(-k * (r_r - r_d))).scale(g * r_d / r_r))
+}
+
+/// The physics switches of one radar simulation.
+#[derive(Debug, Clone, Copy)]
+struct RadarPhysics {
+    /// Spreading exponent of the received power (4 = two-way).
+    spreading: f64,
+    /// RCS ∝ area^area_exp (2 = physical).
+    area_exp: f64,
+    azimuth_pattern: bool,
+    multipath: Option<C64>,
+    rain_db_km: f64,
+    scalloping: bool,
+}
+
+/// SNR of a trihedral (dB) with apex at `apex`, facing the sensor.
+fn radar_snr_db(p: &RadarPhysics, sensor: DVec3, apex: DVec3, edge: f64) -> f64 {
+    let rel = apex - sensor;
+    let r = rel.length();
+    let az = rel.y.atan2(rel.x).to_degrees();
+    let el = (rel.z / r).asin().to_degrees();
+    // σ ∝ a⁴ physically; the area¹ bug keeps σ at a = 0.1 m and scales with (a²)¹.
+    let sigma = trihedral_rcs(0.1) * (edge * edge / 0.01).powf(p.area_exp);
+    let mut snr = SNR_REF_DB + db(sigma / 10.0) - 10.0 * p.spreading * (r / 100.0).log10();
+    // Two-way: the power goes with g⁴ of the one-way field pattern g, and with |F|⁴.
+    snr += 4.0 * db(field_pattern(el, EL_BW_DEG));
+    if p.azimuth_pattern {
+        snr += 4.0 * db(field_pattern(az, AZ_BW_DEG));
+    }
+    if let Some(eps) = p.multipath {
+        snr += 4.0 * db(two_ray_factor(sensor, apex, eps).abs());
+    }
+    snr -= 2.0 * p.rain_db_km * r / 1000.0;
+    if p.scalloping {
+        // Rectangular window, no interpolation: the peak bin sees sinc²(δ), δ = offset from the
+        // nearest bin centre in bins (−3.92 dB at δ = ½).
+        let x = r / RANGE_BIN_M;
+        let delta = x - x.round();
+        let sinc = if delta.abs() < 1e-12 {
+            1.0
+        } else {
+            (PI * delta).sin() / (PI * delta)
+        };
+        snr += db(sinc * sinc);
+    }
+    snr
+}
+
+struct Trihedral {
+    id: u64,
+    edge: f64,
+    /// Height of the box top (reflector top on its post) above the road, as surveyed, m.
+    top_logged: f64,
+    /// True top height (surveyed ± up to 2 cm).
+    top_true: f64,
+}
+
+/// A trihedral's box: x extent a/√3 (plates behind the apex... the corner at the back), y extent
+/// √2·a, z from the road to the reflector top (post below, `mount=auto`). In its object frame the
+/// apex (inner corner, the phase centre) is at x = −a/(2√3) (the back of the box) and 2a/√6 below
+/// the top (one inner edge points up at 2/√6 of a; the other two point down at −1/√6).
+fn trihedral_dims(edge: f64, top: f64) -> DVec3 {
+    DVec3::new(edge / 3f64.sqrt(), 2f64.sqrt() * edge, top)
+}
+
+fn apex_from_box(centre: DVec3, yaw: f64, edge: f64, top: f64) -> DVec3 {
+    let back = DVec3::new(yaw.cos(), yaw.sin(), 0.0) * (-edge / (2.0 * 3f64.sqrt()));
+    DVec3::new(centre.x, centre.y, 0.0) + back + DVec3::Z * (top - 2.0 * edge / 6f64.sqrt())
+}
+
+/// A radar station: per target placed, (target index, horizontal range of the box centre, azimuth
+/// deg). The sensor is at (0, 0, mount_h) looking along +x.
+struct RadarStation {
+    placed: Vec<(usize, f64, f64)>,
+}
+
+struct RadarDesign {
+    edges: Vec<f64>,
+    /// Apex heights, m (per target).
+    apex_h: Vec<f64>,
+    stations: Vec<RadarStation>,
+    frames_per_station: usize,
+    rain_mm_h: f64,
+    asphalt: bool,
+    snr_semantics: bool,
+}
+
+fn radar_design(case: RadarCase, rng: &mut Rng) -> RadarDesign {
+    let mut stations = Vec::new();
+    let slot_cycle = |n: usize, k: usize, i: usize| -> usize { (i + k) % n };
+    match case {
+        RadarCase::GroundMultipath => {
+            // Three reflectors at apex heights 0.45 / 0.65 / 0.85 m, 10–60 m in 0.25 m steps,
+            // at azimuths −6° / 0° / +6° (rotated between stations).
+            let az = [-6.0, 0.0, 6.0];
+            for k in 0..=200usize {
+                let r = 10.0 + 0.25 * k as f64;
+                stations.push(RadarStation {
+                    placed: (0..3).map(|i| (i, r, az[slot_cycle(3, k, i)])).collect(),
+                });
+            }
+            RadarDesign {
+                edges: vec![0.1, 0.1, 0.1],
+                apex_h: vec![0.45, 0.65, 0.85],
+                stations,
+                frames_per_station: 3,
+                rain_mm_h: 0.0,
+                asphalt: true,
+                snr_semantics: false,
+            }
+        }
+        RadarCase::RcsAreaScaling => {
+            let az = [-12.0, -6.0, 0.0, 6.0, 12.0];
+            for k in 0..26usize {
+                let r = 10.0 + 2.0 * k as f64;
+                stations.push(RadarStation {
+                    placed: (0..5).map(|i| (i, r, az[slot_cycle(5, k, i)])).collect(),
+                });
+            }
+            RadarDesign {
+                edges: vec![0.05, 0.08, 0.10, 0.12, 0.15],
+                apex_h: vec![0.6; 5],
+                stations,
+                frames_per_station: 3,
+                rain_mm_h: 0.0,
+                asphalt: false,
+                snr_semantics: false,
+            }
+        }
+        RadarCase::AntennaPattern => {
+            // A fan of nine azimuth slots ±20°, three reflectors rotated over them, 10–30 m.
+            let az: Vec<f64> = (0..9).map(|i| -20.0 + 5.0 * i as f64).collect();
+            for k in 0..45usize {
+                let r = 10.0 + 20.0 * (k / 9) as f64 / 4.0;
+                stations.push(RadarStation {
+                    placed: (0..3).map(|i| (i, r, az[(3 * i + k) % 9])).collect(),
+                });
+            }
+            RadarDesign {
+                edges: vec![0.10, 0.12, 0.15],
+                apex_h: vec![0.6; 3],
+                stations,
+                frames_per_station: 3,
+                rain_mm_h: 0.0,
+                asphalt: false,
+                snr_semantics: false,
+            }
+        }
+        RadarCase::Rain => {
+            let az = [-6.0, 0.0, 6.0];
+            for k in 0..36usize {
+                let r = 10.0 + 4.0 * k as f64;
+                stations.push(RadarStation {
+                    placed: (0..3).map(|i| (i, r, az[slot_cycle(3, k, i)])).collect(),
+                });
+            }
+            RadarDesign {
+                edges: vec![0.12, 0.15, 0.20],
+                apex_h: vec![0.6; 3],
+                stations,
+                frames_per_station: 3,
+                rain_mm_h: 50.0,
+                asphalt: false,
+                snr_semantics: true,
+            }
+        }
+        RadarCase::OutOfCatalogue => {
+            // Random ranges (no grid that would alias the range bins).
+            let az = [-6.0, 0.0, 6.0];
+            for k in 0..60usize {
+                stations.push(RadarStation {
+                    placed: (0..3)
+                        .map(|i| (i, rng.range(8.0, 80.0), az[slot_cycle(3, k, i)]))
+                        .collect(),
+                });
+            }
+            RadarDesign {
+                edges: vec![0.08, 0.10, 0.15],
+                apex_h: vec![0.6; 3],
+                stations,
+                frames_per_station: 3,
+                rain_mm_h: 0.0,
+                asphalt: false,
+                snr_semantics: false,
+            }
+        }
+        RadarCase::TwoWaySpreading | RadarCase::Null => {
+            let az = [-6.0, 0.0, 6.0];
+            for k in 0..40usize {
+                let r = 5.0 * 1.08f64.powi(k as i32);
+                stations.push(RadarStation {
+                    placed: (0..3).map(|i| (i, r, az[slot_cycle(3, k, i)])).collect(),
+                });
+            }
+            RadarDesign {
+                edges: vec![0.08, 0.10, 0.15],
+                apex_h: vec![0.6; 3],
+                stations,
+                frames_per_station: 3,
+                rain_mm_h: 0.0,
+                asphalt: false,
+                snr_semantics: false,
+            }
+        }
+    }
+}
+
+/// Writes a radar campaign for `case` and `seed` into `dir`.
+pub fn radar_campaign(case: RadarCase, seed: u64, dir: &Path) -> anyhow::Result<Written> {
+    std::fs::create_dir_all(dir)?;
+    let mut rng = Rng::new(seed.wrapping_mul(7919).wrapping_add(case as u64));
+    let design = radar_design(case, &mut rng);
+    let h_s = RADAR_MOUNT_H;
+    let sensor = DVec3::new(0.0, 0.0, h_s);
+
+    let truth = RadarPhysics {
+        spreading: 4.0,
+        area_exp: 2.0,
+        azimuth_pattern: true,
+        multipath: design.asphalt.then_some(EPS_ASPHALT),
+        rain_db_km: rain_db_per_km(design.rain_mm_h),
+        scalloping: case == RadarCase::OutOfCatalogue,
+    };
+    let model = RadarPhysics {
+        spreading: if case == RadarCase::TwoWaySpreading {
+            2.0
+        } else {
+            4.0
+        },
+        area_exp: if case == RadarCase::RcsAreaScaling {
+            1.0
+        } else {
+            2.0
+        },
+        azimuth_pattern: case != RadarCase::AntennaPattern,
+        multipath: None,
+        rain_db_km: 0.0,
+        scalloping: false,
+    };
+    // Nuisances.
+    let cal_db = rng.range(-3.0, 3.0);
+    let pos_sigma = 0.02;
+    let targets: Vec<Trihedral> = design
+        .edges
+        .iter()
+        .zip(&design.apex_h)
+        .enumerate()
+        .map(|(i, (&edge, &apex))| {
+            let top = apex + 2.0 * edge / 6f64.sqrt();
+            Trihedral {
+                id: 100 + i as u64,
+                edge,
+                top_logged: top,
+                top_true: top + rng.range(-0.02, 0.02),
+            }
+        })
+        .collect();
+    let report = |snr_db: f64, range_m: f64| -> f64 {
+        if design.snr_semantics {
+            snr_db
+        } else {
+            // RCS estimate: σ = 10 m² · SNR/SNR_ref · (R/100 m)⁴, boresight gain assumed.
+            snr_db - SNR_REF_DB + 10.0 + 40.0 * (range_m / 100.0).log10()
+        }
+    };
+
+    let mut views = Vec::new();
+    let mut meas = Vec::new();
+    let mut sims = Vec::new();
+    let mut frame = 0u64;
+    let mut dropped = 0usize;
+    for st in &design.stations {
+        for _ in 0..design.frames_per_station {
+            let mut logged = Vec::new();
+            let mut m_dets = Vec::new();
+            let mut s_dets = Vec::new();
+            for &(ti, r, az_deg) in &st.placed {
+                let t = &targets[ti];
+                let az = az_deg.to_radians();
+                // Re-aimed at the sensor: +x of the object points back to the sensor.
+                let yaw = az + PI;
+                let c_true = DVec3::new(r * az.cos(), r * az.sin(), t.top_true / 2.0);
+                let apex_true = apex_from_box(c_true, yaw, t.edge, t.top_true);
+                let jitter = DVec3::new(rng.normal(), rng.normal(), rng.normal()) * pos_sigma;
+                let c_log = DVec3::new(c_true.x, c_true.y, t.top_logged / 2.0) + jitter;
+                logged.push(LoggedBox {
+                    id: t.id,
+                    centre: c_log,
+                    dims: trihedral_dims(t.edge, t.top_logged),
+                    yaw,
+                    model_reference: format!("osiris:trihedral?edge_m={}", t.edge),
+                });
+                // Model: from the logged box (apex at the back of the box, 2a/√6 below its top).
+                let apex_log = apex_from_box(c_log, yaw, t.edge, c_log.z + t.top_logged / 2.0);
+                let rel = apex_log - sensor;
+                let snr_s = radar_snr_db(&model, sensor, apex_log, t.edge);
+                if snr_s >= DET_THRESHOLD_DB {
+                    s_dets.push(osi3::RadarDetection {
+                        object_id: ident(t.id),
+                        position: spherical(rel),
+                        radial_velocity: Some(0.0),
+                        rcs: (!design.snr_semantics).then(|| report(snr_s, rel.length())),
+                        snr: design.snr_semantics.then_some(snr_s),
+                        existence_probability: Some(1.0),
+                        ..Default::default()
+                    });
+                }
+                // Measurement: Rician target + complex noise in the linear domain, threshold,
+                // noisy range / azimuth, quantised power, calibration offset, no object id.
+                let snr_t = radar_snr_db(&truth, sensor, apex_true, t.edge);
+                let amp = undb(snr_t).sqrt();
+                let clutter = rng.cnormal().scale(0.15);
+                let noise = rng.cnormal();
+                let snr_m = db(C64::new(1.0, 0.0)
+                    .add(clutter)
+                    .scale(amp)
+                    .add(noise)
+                    .norm_sqr());
+                if snr_m >= DET_THRESHOLD_DB {
+                    let rel_t = apex_true - sensor;
+                    let r_m = rel_t.length() + 0.04 * rng.normal();
+                    let az_m = rel_t.y.atan2(rel_t.x) + (0.2f64).to_radians() * rng.normal();
+                    let el_m =
+                        (rel_t.z / rel_t.length()).asin() + (0.5f64).to_radians() * rng.normal();
+                    let value = ((report(snr_m, r_m) + cal_db) * 2.0).round() / 2.0;
+                    m_dets.push(osi3::RadarDetection {
+                        position: Some(osi3::Spherical3d {
+                            distance: Some(r_m),
+                            azimuth: Some(az_m),
+                            elevation: Some(el_m),
+                        }),
+                        radial_velocity: Some(0.03 * rng.normal()),
+                        rcs: (!design.snr_semantics).then_some(value),
+                        snr: design.snr_semantics.then_some(value),
+                        existence_probability: Some(1.0),
+                        ..Default::default()
+                    });
+                }
+            }
+            views.push(sensor_view(frame, h_s, &logged));
+            sims.push(sensor_data_radar(frame, h_s, s_dets));
+            if rng.uniform() < 0.10 {
+                dropped += 1;
+            } else {
+                meas.push(sensor_data_radar(frame, h_s, m_dets));
+            }
+            frame += 1;
+        }
+    }
+    write_trace(&dir.join("sv.osi"), &views)?;
+    write_trace(&dir.join("meas.osi"), &meas)?;
+    write_trace(&dir.join("model.osi"), &sims)?;
+
+    let mut toml = String::new();
+    let semantics = if design.snr_semantics {
+        "snr = \"processed SNR in dB after range/Doppler FFT and beamforming; unknown calibration offset\""
+    } else {
+        "rcs = \"RCS estimate in dBsm: SNR range-compensated with R^4 at the measured range, boresight gain, unknown calibration offset, 0.5 dB steps\""
+    };
+    let _ = writeln!(
+        toml,
+        r#"schema = "osiris.consistency/1"
+
+[run]
+id = "independent-radar-{name}-{seed}"
+description = "independent truth generator (tests/support/independent_truth.rs): trihedrals, hidden case `{name}`"
+provenance = "synthetic"
+licence = "MPL-2.0"
+
+[sensor]
+kind = "radar"
+osi_sensor_id = {SENSOR_ID}
+mounting_position_m = [{mx}, 0.0, {mz}]
+mounting_orientation_rad = [0.0, 0.0, 0.0]
+frequency_hz = {RADAR_FREQ_HZ:e}
+bandwidth_hz = 1e9
+mounting_height_m = {h_s}
+polarisation = "horizontal"
+antenna_beamwidth_az_deg = {AZ_BW_DEG}
+antenna_beamwidth_el_deg = {EL_BW_DEG}
+detection_threshold_db = {DET_THRESHOLD_DB}
+
+[sensor.quantity_semantics]
+{semantics}
+
+[environment]
+rain_mm_h = {rain}
+ground = "{ground}"
+
+[uncertainty]
+gt_position_sigma_m = {pos_sigma}
+gt_height_sigma_m = 0.0115
+
+[association]
+method = "gating"
+
+[bins]
+explanatory = ["range", "azimuth", "area"]
+
+[traces]
+sensor_view = "sv.osi"
+sensor_data = "meas.osi"
+"#,
+        name = case.name(),
+        mx = HOST_LEN / 2.0,
+        mz = h_s - HOST_H / 2.0,
+        rain = design.rain_mm_h,
+        ground = if design.asphalt {
+            "asphalt"
+        } else {
+            "absorber mats (no ground reflection)"
+        },
+    );
+    for t in &targets {
+        let _ = writeln!(
+            toml,
+            "[[target]]\nid = {}\nkind = \"trihedral\"\nedge_m = {}\nmaterial = \"aluminium\"\norientation = \"facing the sensor\"\n",
+            t.id, t.edge
+        );
+    }
+    let meta = dir.join("consistency.toml");
+    std::fs::write(&meta, toml)?;
+    Ok(Written {
+        meta,
+        model_trace: dir.join("model.osi"),
+        hidden: case.name().into(),
+        frames: frame as usize,
+        dropped_frames: dropped,
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// LiDAR.
+
+/// Hidden-effect cases of the LiDAR campaigns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LidarCase {
+    /// Biaxial transmitter/receiver overlap O(R) (physics.md §2.3), exact circle–circle form.
+    Overlap,
+    /// Beer–Lambert two-way extinction in fog of visibility V (Koschmieder, Kim q = 0 below 0.5 km).
+    Fog,
+    /// The measured beam has a vertical divergence; the model's beam is a line in elevation.
+    VerticalDivergence,
+    Null,
+    /// The boards' true reflectivities are off their labels by a random factor per board.
+    OutOfCatalogue,
+}
+
+impl LidarCase {
+    pub const ALL: [LidarCase; 5] = [
+        LidarCase::Overlap,
+        LidarCase::Fog,
+        LidarCase::VerticalDivergence,
+        LidarCase::Null,
+        LidarCase::OutOfCatalogue,
+    ];
+    pub fn name(self) -> &'static str {
+        match self {
+            LidarCase::Overlap => "overlap",
+            LidarCase::Fog => "fog",
+            LidarCase::VerticalDivergence => "vertical_divergence",
+            LidarCase::Null => "null",
+            LidarCase::OutOfCatalogue => "out_of_catalogue",
+        }
+    }
+}
+
+/// Ring spacing and column step, deg (GUESSED: a 128-ring class sensor in its dense band).
+pub const LIDAR_RING_STEP_DEG: f64 = 0.2;
+pub const LIDAR_RINGS: usize = 128;
+pub const LIDAR_RING0_DEG: f64 = -15.0;
+pub const LIDAR_COL_STEP_DEG: f64 = 0.4;
+/// Full-angle footprint divergence, mrad (VLS-128: 3.0 H × 1.5 V per physics.md §2.7; here the
+/// vertical one is the larger, GUESSED, so the DIVP "vertical divergence" effect is visible).
+pub const LIDAR_DIV_H_MRAD: f64 = 1.5;
+pub const LIDAR_DIV_V_MRAD: f64 = 3.0;
+/// Detection threshold on ρ·f·cosα·O·T²/R² (a 10 % board is detected to 100 m in clear air).
+pub const LIDAR_THRESHOLD: f64 = 0.1 / (100.0 * 100.0);
+/// Sensor height, m (roof).
+pub const LIDAR_MOUNT_H: f64 = 1.6;
+/// Fog visibility of the fog case, m.
+pub const FOG_VISIBILITY_M: f64 = 200.0;
+
+/// Extinction coefficient at 905 nm, 1/m, from the visibility (Koschmieder 3.912/V with Kim's
+/// wavelength exponent; q = 0 for V < 500 m, physics.md §2.4).
+pub fn fog_extinction_per_m(vis_m: f64) -> f64 {
+    let v_km = vis_m / 1000.0;
+    let q = if v_km > 50.0 {
+        1.6
+    } else if v_km > 6.0 {
+        1.3
+    } else if v_km > 1.0 {
+        0.16 * v_km + 0.34
+    } else if v_km > 0.5 {
+        v_km - 0.5
+    } else {
+        0.0
+    };
+    3.912 / vis_m * (905.0f64 / 550.0).powf(-q)
+}
+
+/// Biaxial overlap O(R) (physics.md §2.3): transmitter radius r_t0 + Rθ_t/2, receiver field of view
+/// r_r0 + Rθ_r/2, axis separation d₀ (parallel axes), O = A_overlap/(π r_t²). The example set of
+/// physics.md: r_t0 = 2.5 mm, θ_t = 3 mrad, r_r0 = 12.5 mm, θ_r = 10 mrad, d₀ = 25 mm.
+pub fn overlap(range_m: f64) -> f64 {
+    let (rt0, tht, rr0, thr, d) = (0.0025, 0.003, 0.0125, 0.010, 0.025);
+    let rt = rt0 + range_m * tht / 2.0;
+    let rr = rr0 + range_m * thr / 2.0;
+    if d >= rt + rr {
+        return 0.0;
+    }
+    if d <= (rr - rt).abs() {
+        return (rt.min(rr) / rt).powi(2);
+    }
+    let a1 = rt
+        * rt
+        * ((d * d + rt * rt - rr * rr) / (2.0 * d * rt))
+            .clamp(-1.0, 1.0)
+            .acos();
+    let a2 = rr
+        * rr
+        * ((d * d + rr * rr - rt * rt) / (2.0 * d * rr))
+            .clamp(-1.0, 1.0)
+            .acos();
+    let a3 = 0.5
+        * ((-d + rt + rr) * (d + rt - rr) * (d - rt + rr) * (d + rt + rr))
+            .max(0.0)
+            .sqrt();
+    ((a1 + a2 - a3) / (PI * rt * rt)).clamp(0.0, 1.0)
+}
+
+#[derive(Debug, Clone, Copy)]
+struct LidarPhysics {
+    overlap: bool,
+    extinction_per_m: f64,
+    div_v_mrad: f64,
+}
+
+struct Board {
+    id: u64,
+    width: f64,
+    height: f64,
+    /// Labelled reflectivity, %.
+    refl_label: f64,
+    /// True reflectivity, %.
+    refl_true: f64,
+    /// Centre height above the road, m.
+    z: f64,
+}
+
+struct LidarDesign {
+    boards: Vec<Board>,
+    /// Stations: per board placed, (board index, horizontal range, azimuth deg).
+    stations: Vec<Vec<(usize, f64, f64)>>,
+    frames_per_station: usize,
+    fog_vis_m: f64,
+}
+
+fn lidar_design(case: LidarCase, rng: &mut Rng) -> LidarDesign {
+    let board = |id: u64, w: f64, h: f64, refl: f64, z: f64| Board {
+        id,
+        width: w,
+        height: h,
+        refl_label: refl,
+        refl_true: refl,
+        z,
+    };
+    let triple = |ranges: &[f64], lateral: f64| -> Vec<Vec<(usize, f64, f64)>> {
+        // Three boards side by side, `lateral` m apart, at each range (rotated between stations).
+        ranges
+            .iter()
+            .enumerate()
+            .map(|(k, &r)| {
+                (0..3)
+                    .map(|i| {
+                        let y = lateral * (((i + k) % 3) as f64 - 1.0);
+                        (i, r.hypot(y), y.atan2(r).to_degrees())
+                    })
+                    .collect()
+            })
+            .collect()
+    };
+    match case {
+        LidarCase::Overlap => {
+            let ranges = [
+                2.0, 2.25, 2.5, 2.75, 3.0, 3.25, 3.5, 4.0, 4.5, 5.0, 6.0, 7.0, 8.0, 10.0, 12.0,
+                15.0, 20.0, 25.0,
+            ];
+            LidarDesign {
+                boards: vec![
+                    board(200, 0.5, 0.5, 10.0, 1.4),
+                    board(201, 0.5, 0.5, 50.0, 1.5),
+                    board(202, 0.5, 0.5, 90.0, 1.6),
+                ],
+                stations: triple(&ranges, 0.8),
+                frames_per_station: 3,
+                fog_vis_m: f64::INFINITY,
+            }
+        }
+        LidarCase::Fog => {
+            let ranges: Vec<f64> = (0..10).map(|k| 5.0 + 5.0 * k as f64).collect();
+            LidarDesign {
+                boards: vec![
+                    board(200, 0.5, 0.5, 10.0, 1.4),
+                    board(201, 0.5, 0.5, 50.0, 1.5),
+                    board(202, 0.5, 0.5, 90.0, 1.6),
+                ],
+                stations: triple(&ranges, 1.5),
+                frames_per_station: 3,
+                fog_vis_m: FOG_VISIBILITY_M,
+            }
+        }
+        LidarCase::VerticalDivergence => {
+            let ranges: Vec<f64> = (0..12).map(|k| 5.0 + 5.0 * k as f64).collect();
+            LidarDesign {
+                boards: vec![
+                    board(200, 0.5, 0.3, 50.0, 1.5),
+                    board(201, 0.5, 0.5, 50.0, 1.5),
+                    board(202, 0.5, 1.0, 50.0, 1.5),
+                ],
+                stations: triple(&ranges, 1.5),
+                frames_per_station: 3,
+                fog_vis_m: f64::INFINITY,
+            }
+        }
+        LidarCase::Null | LidarCase::OutOfCatalogue => {
+            let ranges: Vec<f64> = (0..10).map(|k| 5.0 + 5.0 * k as f64).collect();
+            let mut boards = vec![
+                board(200, 0.5, 0.5, 10.0, 1.4),
+                board(201, 0.5, 0.5, 50.0, 1.5),
+                board(202, 0.5, 0.5, 90.0, 1.6),
+                board(203, 0.5, 0.5, 10.0, 1.6),
+                board(204, 0.5, 0.5, 50.0, 1.4),
+                board(205, 0.5, 0.5, 90.0, 1.5),
+            ];
+            if case == LidarCase::OutOfCatalogue {
+                // Dirty / aged boards: true reflectivity off the label by a log-normal factor of
+                // 2 dB σ per board (not in any catalogue entry: the model trusts the labels).
+                for b in &mut boards {
+                    b.refl_true = b.refl_label * undb(2.0 * rng.normal());
+                }
+            }
+            let mut stations = triple(&ranges, 1.5);
+            for st in triple(&ranges, 1.5) {
+                stations.push(
+                    st.into_iter()
+                        .map(|(i, r, a)| (i + 3, r + 2.5, a))
+                        .collect(),
+                );
+            }
+            LidarDesign {
+                boards,
+                stations,
+                frames_per_station: 3,
+                fog_vis_m: f64::INFINITY,
+            }
+        }
+    }
+}
+
+/// One LiDAR return: (beam id, ring elevation, column azimuth, range along the beam, relative
+/// power ρ·f·cosα·O·T²/R² with ρ a fraction, reported reflectivity %).
+struct Return {
+    beam: u64,
+    dir: DVec3,
+    range: f64,
+    power: f64,
+}
+
+/// Traces the beams that can reach a board (centre `c`, facing yaw, w × h) from the sensor at
+/// `o`; returns the returns above zero power (before thresholding).
+fn trace_board(
+    p: &LidarPhysics,
+    o: DVec3,
+    c: DVec3,
+    yaw: f64,
+    w: f64,
+    h: f64,
+    refl_pct: f64,
+) -> Vec<Return> {
+    let n = DVec3::new(yaw.cos(), yaw.sin(), 0.0);
+    let u_axis = DVec3::new(-yaw.sin(), yaw.cos(), 0.0);
+    let rel = c - o;
+    let dist = rel.length();
+    let margin = 0.5 * (w.hypot(h)) + 0.01 * dist + 0.05;
+    let half_ang = (margin / dist).atan();
+    let el_c = (rel.z / dist).asin();
+    let az_c = rel.y.atan2(rel.x);
+    let col_step = LIDAR_COL_STEP_DEG.to_radians();
+    let ncols = (2.0 * PI / col_step).round() as i64;
+    let mut out = Vec::new();
+    for ring in 0..LIDAR_RINGS {
+        let el = (LIDAR_RING0_DEG + LIDAR_RING_STEP_DEG * ring as f64).to_radians();
+        if (el - el_c).abs() > half_ang {
+            continue;
+        }
+        let j0 = ((az_c - half_ang) / col_step).floor() as i64;
+        let j1 = ((az_c + half_ang) / col_step).ceil() as i64;
+        for j in j0..=j1 {
+            let az = j as f64 * col_step;
+            let d = DVec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
+            let denom = n.dot(d);
+            if denom.abs() < 1e-6 {
+                continue;
+            }
+            let t = n.dot(rel) / denom;
+            if t <= 0.0 {
+                continue;
+            }
+            let hit = o + d * t - c;
+            let (u, v) = (hit.dot(u_axis), hit.z);
+            // Top-hat footprint, full angles.
+            let fu = 0.5 * LIDAR_DIV_H_MRAD * 1e-3 * t;
+            let fv = 0.5 * p.div_v_mrad * 1e-3 * t;
+            let frac = |x: f64, f: f64, half: f64| -> f64 {
+                if f <= 0.0 {
+                    return if x.abs() <= half { 1.0 } else { 0.0 };
+                }
+                let lo = (x - f).max(-half);
+                let hi = (x + f).min(half);
+                ((hi - lo) / (2.0 * f)).clamp(0.0, 1.0)
+            };
+            let f = frac(u, fu, w / 2.0) * frac(v, fv, h / 2.0);
+            if f <= 0.0 {
+                continue;
+            }
+            let cos_a = denom.abs();
+            let ovl = if p.overlap { overlap(t) } else { 1.0 };
+            let trans2 = (-2.0 * p.extinction_per_m * t).exp();
+            let power = refl_pct / 100.0 * f * cos_a * ovl * trans2 / (t * t);
+            let col = j.rem_euclid(ncols) as u64;
+            out.push(Return {
+                beam: ring as u64 * ncols as u64 + col,
+                dir: d,
+                range: t,
+                power,
+            });
+        }
+    }
+    out
+}
+
+/// Writes a LiDAR campaign for `case` and `seed` into `dir`.
+pub fn lidar_campaign(case: LidarCase, seed: u64, dir: &Path) -> anyhow::Result<Written> {
+    std::fs::create_dir_all(dir)?;
+    let mut rng = Rng::new(seed.wrapping_mul(104_729).wrapping_add(100 + case as u64));
+    let design = lidar_design(case, &mut rng);
+    let h_s = LIDAR_MOUNT_H;
+    let o = DVec3::new(0.0, 0.0, h_s);
+    let ext = if design.fog_vis_m.is_finite() {
+        fog_extinction_per_m(design.fog_vis_m)
+    } else {
+        0.0
+    };
+    let truth = LidarPhysics {
+        overlap: true,
+        extinction_per_m: ext,
+        div_v_mrad: LIDAR_DIV_V_MRAD,
+    };
+    let model = LidarPhysics {
+        overlap: case != LidarCase::Overlap,
+        extinction_per_m: if case == LidarCase::Fog { 0.0 } else { ext },
+        div_v_mrad: if case == LidarCase::VerticalDivergence {
+            0.0
+        } else {
+            LIDAR_DIV_V_MRAD
+        },
+    };
+    let cal_db = rng.range(-1.0, 1.0);
+    let range_offset = rng.range(-0.02, 0.02);
+    let pos_sigma = 0.01;
+    let height_err: Vec<f64> = design
+        .boards
+        .iter()
+        .map(|_| rng.range(-0.02, 0.02))
+        .collect();
+
+    let mut views = Vec::new();
+    let mut meas = Vec::new();
+    let mut sims = Vec::new();
+    let mut frame = 0u64;
+    let mut dropped = 0usize;
+    for st in &design.stations {
+        for _ in 0..design.frames_per_station {
+            let mut logged = Vec::new();
+            let mut m_dets = Vec::new();
+            let mut s_dets = Vec::new();
+            for &(bi, r, az_deg) in st {
+                let b = &design.boards[bi];
+                let az = az_deg.to_radians();
+                let yaw = az + PI;
+                let c_true = DVec3::new(r * az.cos(), r * az.sin(), b.z + height_err[bi]);
+                let jitter = DVec3::new(rng.normal(), rng.normal(), rng.normal()) * pos_sigma;
+                let c_log = DVec3::new(c_true.x, c_true.y, b.z) + jitter;
+                logged.push(LoggedBox {
+                    id: b.id,
+                    centre: c_log,
+                    dims: DVec3::new(0.01, b.width, b.height),
+                    yaw,
+                    model_reference: format!(
+                        "osiris:board?width_m={}&height_m={}&thickness_m=0.01&material=lambertian_{}&mount=none",
+                        b.width, b.height, b.refl_label
+                    ),
+                });
+                for ret in trace_board(&model, o, c_log, yaw, b.width, b.height, b.refl_label) {
+                    if ret.power < LIDAR_THRESHOLD {
+                        continue;
+                    }
+                    let intensity = (100.0 * ret.power * ret.range * ret.range).round();
+                    s_dets.push(osi3::LidarDetection {
+                        object_id: ident(b.id),
+                        beam_id: ident(ret.beam),
+                        position: spherical(ret.dir * ret.range),
+                        intensity: Some(intensity),
+                        existence_probability: Some(1.0),
+                        ..Default::default()
+                    });
+                }
+                for ret in trace_board(&truth, o, c_true, yaw, b.width, b.height, b.refl_true) {
+                    // Speckle / shot noise: 5 % of the power, plus 0.3 % reflectivity-equivalent
+                    // additive noise at the reference range.
+                    let p = ret.power * (1.0 + 0.05 * rng.normal())
+                        + 0.003 * 0.1 / (100.0 * 100.0) * rng.normal();
+                    if p < LIDAR_THRESHOLD {
+                        continue;
+                    }
+                    let r_m = ret.range + range_offset + 0.02 * rng.normal();
+                    let intensity = (100.0 * p * ret.range * ret.range * undb(cal_db))
+                        .round()
+                        .clamp(0.0, 255.0);
+                    m_dets.push(osi3::LidarDetection {
+                        beam_id: ident(ret.beam),
+                        position: spherical(ret.dir * r_m),
+                        intensity: Some(intensity),
+                        existence_probability: Some(1.0),
+                        ..Default::default()
+                    });
+                }
+            }
+            views.push(sensor_view(frame, h_s, &logged));
+            sims.push(sensor_data_lidar(frame, h_s, s_dets));
+            if rng.uniform() < 0.10 {
+                dropped += 1;
+            } else {
+                meas.push(sensor_data_lidar(frame, h_s, m_dets));
+            }
+            frame += 1;
+        }
+    }
+    write_trace(&dir.join("sv.osi"), &views)?;
+    write_trace(&dir.join("meas.osi"), &meas)?;
+    write_trace(&dir.join("model.osi"), &sims)?;
+
+    let mut toml = String::new();
+    let fog = if design.fog_vis_m.is_finite() {
+        format!("{}", design.fog_vis_m)
+    } else {
+        "\"inf\"".into()
+    };
+    let _ = writeln!(
+        toml,
+        r#"schema = "osiris.consistency/1"
+
+[run]
+id = "independent-lidar-{name}-{seed}"
+description = "independent truth generator (tests/support/independent_truth.rs): Lambertian boards, hidden case `{name}`"
+provenance = "synthetic"
+licence = "MPL-2.0"
+
+[sensor]
+kind = "lidar"
+osi_sensor_id = {SENSOR_ID}
+mounting_position_m = [{mx}, 0.0, {mz}]
+mounting_orientation_rad = [0.0, 0.0, 0.0]
+wavelength_nm = 905
+beam_divergence_mrad = {LIDAR_DIV_V_MRAD}
+range_accuracy_m = 0.02
+
+[sensor.quantity_semantics]
+intensity = "range-compensated reflectivity in % (clear air, full overlap assumed), 1 DN steps, unknown gain calibration"
+
+[environment]
+fog_visibility_m = {fog}
+
+[uncertainty]
+gt_position_sigma_m = {pos_sigma}
+gt_height_sigma_m = 0.0115
+
+[association]
+method = "object_id"
+pairing = "beam_id"
+
+[bins]
+explanatory = ["range", "reflectivity", "height"]
+
+[traces]
+sensor_view = "sv.osi"
+sensor_data = "meas.osi"
+"#,
+        name = case.name(),
+        mx = HOST_LEN / 2.0,
+        mz = h_s - HOST_H / 2.0,
+    );
+    for b in &design.boards {
+        let _ = writeln!(
+            toml,
+            "[[target]]\nid = {}\nkind = \"board\"\nreflectivity_pct = {}\nsize_m = [{}, {}]\nmaterial = \"lambertian_{}\"\norientation = \"facing the sensor\"\n",
+            b.id, b.refl_label, b.width, b.height, b.refl_label
+        );
+    }
+    let meta = dir.join("consistency.toml");
+    std::fs::write(&meta, toml)?;
+    Ok(Written {
+        meta,
+        model_trace: dir.join("model.osi"),
+        hidden: case.name().into(),
+        frames: frame as usize,
+        dropped_frames: dropped,
+    })
+}
