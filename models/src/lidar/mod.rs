@@ -644,6 +644,9 @@ impl LidarSensor {
         let resolved = lidar.resolve()?;
         let effects = Effects::with_switches(&crate::effects::catalogue(), &config.effects)
             .map_err(|e| ModelError::Config(format!("`effects`: {e}")))?;
+        // Environment and space-design switches (wet road, multipath, transmission, ...) reach the
+        // scene and the space through the world.
+        let world = SensorWorld::for_effects(&effects);
         let engine = Self::plan(&config, &lidar, &resolved, &effects)?;
         let recognition = LidarRecognition::new(&lidar.recognition)?;
         Ok(LidarSensor {
@@ -651,7 +654,7 @@ impl LidarSensor {
             lidar,
             resolved,
             effects,
-            world: SensorWorld::new(),
+            world,
             engine,
             recognition,
             cycle: 0,
