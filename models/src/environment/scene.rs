@@ -914,7 +914,8 @@ impl Scene {
             }
         }
         if report.rebased
-            || static_signature(gt, self.options.use_wet_materials && self.wet) != self.static_signature
+            || static_signature(gt, self.options.use_wet_materials && self.wet)
+                != self.static_signature
         {
             self.rebuild_static(gt)?;
             report.static_rebuilt = true;
