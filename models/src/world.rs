@@ -16,18 +16,69 @@
 //! 5. takes the weather from the configuration (`"weather"` key: exact values) or else from the
 //!    ground truth's OSI categories ([`weather_from_osi`]: a representative value per class).
 //!
+//! The world applies the sensor's environment and space-design switches in one place
+//! ([`WorldEffects`], from the sensor's effect set): `env.wet_road` decides whether the road is wet
+//! (configured weather, else the ground truth), `env.wet_surfaces` whether the road and marking
+//! materials follow it with their wet variants, and `space.*` ([`SpaceEffects`]) reach the
+//! [`Space`] every query of the sensor goes through.
+//!
 //! The resulting [`WorldFrame`] is all a physical model needs to trace rays: everything in it is
 //! in the scene frame except `frame` (global).
 
 use glam::DVec3;
 use osiris_proto::{interface_version, osi3, timestamp_from_seconds};
 
-use crate::environment::material::MaterialDb;
+use crate::effects::Effects;
+use crate::environment::material::{MaterialDb, WET_SURFACES};
 use crate::environment::scene::{Scene, SceneBuilder, SceneOptions};
-use crate::environment::weather::{RoadWetness, Weather};
+use crate::environment::weather::{RoadWetness, WET_ROAD, Weather};
 use crate::frames::{Pose, SensorFrame};
 use crate::sensor::{ModelError, SensorConfig};
-use crate::space::{Space, SpaceBuilder};
+use crate::space::{Space, SpaceBuilder, SpaceEffects};
+
+/// The switches a [`SensorWorld`] applies to the scene and the space (see the module
+/// documentation).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WorldEffects {
+    /// `space.multipath`, `space.diffuse_bounces`, `space.transmission`: set on the [`Space`].
+    pub space: SpaceEffects,
+    /// `env.wet_road`: the road may be wet (off: dry whatever the weather).
+    pub wet_road: bool,
+    /// `env.wet_surfaces`: a wet road uses the wet variants of its materials.
+    pub wet_surfaces: bool,
+}
+
+impl Default for WorldEffects {
+    fn default() -> Self {
+        WorldEffects {
+            space: SpaceEffects::default(),
+            wet_road: WET_ROAD.default_on,
+            wet_surfaces: WET_SURFACES.default_on,
+        }
+    }
+}
+
+impl WorldEffects {
+    /// The switches from an effect set that declares the `env.*` and `space.*` effects (panics if
+    /// it does not).
+    pub fn from_effects(effects: &Effects) -> WorldEffects {
+        WorldEffects {
+            space: SpaceEffects::from_effects(effects),
+            wet_road: effects.is_on(&WET_ROAD),
+            wet_surfaces: effects.is_on(&WET_SURFACES),
+        }
+    }
+
+    /// The road state the scene is to use, given the configured weather (`None`: the ground truth
+    /// decides): dry with `env.wet_road` off.
+    fn road_wet(&self, configured: Option<&Weather>) -> Option<bool> {
+        if !self.wet_road {
+            Some(false)
+        } else {
+            configured.map(|w| w.road.is_wet())
+        }
+    }
+}
 
 /// One step's view of the world (see the module documentation).
 pub struct WorldFrame<'a> {
@@ -190,6 +241,7 @@ impl<'v> ViewFrame<'v> {
 pub struct SensorWorld {
     materials: MaterialDb,
     options: SceneOptions,
+    effects: WorldEffects,
     scene: Option<Scene>,
     space: Option<Space>,
     /// Scene builds + static rebuilds so far (diagnostics).
@@ -199,21 +251,44 @@ pub struct SensorWorld {
 }
 
 impl SensorWorld {
-    /// A world with the built-in materials database and default scene options.
+    /// A world with the built-in materials database, default scene options and every effect at its
+    /// default.
     pub fn new() -> SensorWorld {
         SensorWorld::with(MaterialDb::builtin(), SceneOptions::default())
     }
 
-    /// A world with a given materials database and scene options.
+    /// A world with the built-in materials database and default scene options that applies the
+    /// switches of a sensor's effect set ([`WorldEffects::from_effects`]): how every physical sensor
+    /// builds its world.
+    pub fn for_effects(effects: &Effects) -> SensorWorld {
+        SensorWorld::new().with_effects(WorldEffects::from_effects(effects))
+    }
+
+    /// A world with a given materials database and scene options, every effect at its default
+    /// (`options.use_wet_materials` and `options.road_wet` are set from the effects at the first
+    /// update).
     pub fn with(materials: MaterialDb, options: SceneOptions) -> SensorWorld {
         SensorWorld {
             materials,
             options,
+            effects: WorldEffects::default(),
             scene: None,
             space: None,
             static_builds: 0,
             warnings: Vec::new(),
         }
+    }
+
+    /// The same world applying `effects` (forgets the scene and space).
+    pub fn with_effects(mut self, effects: WorldEffects) -> SensorWorld {
+        self.effects = effects;
+        self.reset();
+        self
+    }
+
+    /// The switches this world applies.
+    pub fn effects(&self) -> &WorldEffects {
+        &self.effects
     }
 
     /// Forget the scene and space (next update rebuilds them).
@@ -260,9 +335,14 @@ impl SensorWorld {
                 }
             }
             None => {
+                let options = SceneOptions {
+                    use_wet_materials: self.effects.wet_surfaces,
+                    road_wet: self.effects.road_wet(config.weather.as_ref()),
+                    ..self.options.clone()
+                };
                 let scene = SceneBuilder::new(self.materials.clone())
                     .host_id(host_id)
-                    .options(self.options.clone())
+                    .options(options)
                     .build(gt)
                     .map_err(scene_err)?;
                 self.scene = Some(scene);
@@ -289,7 +369,10 @@ impl SensorWorld {
             },
         ));
         match built {
-            Ok(Ok(Some(space))) => self.space = Some(space),
+            Ok(Ok(Some(mut space))) => {
+                space.effects = self.effects.space;
+                self.space = Some(space);
+            }
             Ok(Ok(None)) => {}
             Ok(Err(e)) => return Err(e),
             Err(_) => {
@@ -306,8 +389,12 @@ impl SensorWorld {
         let space = self.space.as_ref().expect("space built above");
 
         let sensor_pose = Pose::new(scene.to_local(frame.pose.position), frame.pose.rotation);
+        // The road state is the scene's (configured weather or ground truth, `env.wet_road`).
         let weather = match &config.weather {
-            Some(w) => *w,
+            Some(w) => Weather {
+                road: if scene.wet { w.road } else { RoadWetness::Dry },
+                ..*w
+            },
             None => weather_from_osi(gt.environmental_conditions.as_ref(), scene.wet),
         };
         Ok(WorldFrame {

@@ -13,7 +13,8 @@
 //!   (Bird & Riordan 1986, [`crate::environment::sky::spectrl2`]) at the sun's zenith.
 //! * **Sky**: isotropic sky of radiance `L_sky = E_dhi/π` (the diffuse horizontal irradiance of
 //!   SPCTRAL2 spread uniformly over the hemisphere; the isotropic model of Liu & Jordan, Solar
-//!   Energy 4(3):1, 1960). With `diffuse_bounces = 0` a surface gets the ambient term
+//!   Energy 4(3):1, 1960). With `diffuse_bounces = 0` (or `space.multipath` or
+//!   `space.diffuse_bounces` off) a surface gets the ambient term
 //!   `ρ/π · E_dhi · (1 + n_z)/2` (sky-view factor of a tilted plane, no occlusion); with
 //!   `diffuse_bounces ≥ 1` the sky light is sampled by cosine-weighted bounce rays instead, which
 //!   also carry sun light reflected by other surfaces (one-sample Monte-Carlo estimate
@@ -26,7 +27,7 @@
 //!   [`RenderConfig::max_glass_crossings`] panes ([`crate::space::Space::closest_hit_through`]) and
 //!   is attenuated by the slab transmittance at 550 nm and the incidence angle
 //!   ([`crate::environment::material::Material::transmittance`]); the pane reflects the sky
-//!   (`R_slab · L_sky`).
+//!   (`R_slab · L_sky`). With `space.transmission` off the panes are opaque.
 //! * **Fog** (`env.fog_extinction`, Koschmieder 1924): `L = L_0 e^{−σd} + L_air(1 − e^{−σd})` with
 //!   `σ(λ_k)` from [`crate::environment::weather::extinction_per_m_with`] and the air light
 //!   `L_air = L_sky` (horizon sky radiance of the isotropic model); rays that leave the scene see
@@ -615,7 +616,12 @@ impl Renderer {
         let smax = sigma[..nb].iter().copied().fold(0f32, f32::max);
         let smin = sigma[..nb].iter().copied().fold(f32::INFINITY, f32::min);
         let fog = smax > 0.0;
-        let bands_mode = self.config.diffuse_bounces > 0 || (fog && smax - smin > 1e-6 * smax);
+        // Bounce rays only with `space.multipath` (indirect light) and `space.diffuse_bounces`.
+        let bounces = frame
+            .space
+            .effects
+            .diffuse_bounce_rays(self.config.diffuse_bounces);
+        let bands_mode = bounces > 0 || (fog && smax - smin > 1e-6 * smax);
         let nl = if bands_mode { nb } else { CHANNELS };
         if !bands_mode {
             sigma[..CHANNELS].fill(smax);
@@ -764,7 +770,7 @@ impl Renderer {
             lamp_lib: &self.lamp_lib,
             min_lux: self.config.lamps.min_illuminance_lux,
             part_role,
-            bounces: self.config.diffuse_bounces,
+            bounces,
             max_crossings: self.config.max_glass_crossings,
             max_distance_m: self.config.max_distance_m,
             seed: hash64(input.seed ^ input.cycle.wrapping_mul(0x9E37_79B9_7F4A_7C15)),

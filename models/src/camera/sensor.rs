@@ -294,13 +294,16 @@ impl CameraSensor {
         let camera = config.camera.clone().unwrap_or_default();
         let effects = Effects::with_switches(&crate::effects::catalogue(), &config.effects)
             .map_err(|e| ModelError::Config(format!("`effects`: {e}")))?;
+        // Environment and space-design switches (wet road, multipath, transmission, ...) reach the
+        // scene and the space through the world.
+        let world = SensorWorld::for_effects(&effects);
         let chain = CameraChain::plan(&config, &camera, &effects)?;
         let recognition = CameraRecognition::new(&camera.recognition)?;
         Ok(CameraSensor {
             handshake: crate::world::Handshake::new(&config),
             camera,
             effects,
-            world: SensorWorld::new(),
+            world,
             chain,
             recognition,
             cycle: 0,

@@ -125,6 +125,9 @@ pub struct SceneOptions {
     /// On a wet road use the `_wet` variants of the road and marking materials
     /// (`asphalt_dry` → `asphalt_wet`, `x` → `x_wet`) where the database has them.
     pub use_wet_materials: bool,
+    /// The road state when the ground truth is not to decide it (the sensor's configured weather,
+    /// `env.wet_road` off): `Some(wet)`; `None`: wet as the ground truth says ([`Scene::wet`]).
+    pub road_wet: Option<bool>,
     /// Marking width where the boundary points carry none, m.
     pub marking_width_m: f64,
     /// Height of markings above the road surface, m.
@@ -151,6 +154,7 @@ impl Default for SceneOptions {
             road_material: "asphalt_dry".into(),
             marking_material: "lane_paint_white".into(),
             use_wet_materials: false,
+            road_wet: None,
             marking_width_m: 0.12,
             marking_height_m: 0.001,
             dash_length_m: 6.0,
@@ -279,7 +283,7 @@ impl SceneBuilder {
             meshes: Vec::new(),
             instances: Vec::new(),
             materials: self.materials,
-            wet: is_wet(gt),
+            wet: road_wet(&self.options, gt),
             host_id,
             static_revision: 0,
             warnings: Vec::new(),
@@ -311,8 +315,9 @@ pub struct Scene {
     pub instances: Vec<SceneInstance>,
     /// The materials the part materials index.
     pub materials: MaterialDb,
-    /// Whether the road is wet: a lane with `road_condition.surface_water_film > 0`, or precipitation
-    /// (any `EnvironmentalConditions.precipitation` from `VERY_LIGHT` on).
+    /// Whether the road is wet: [`SceneOptions::road_wet`] if set, else from the ground truth (a lane
+    /// with `road_condition.surface_water_film > 0`, or precipitation: any
+    /// `EnvironmentalConditions.precipitation` from `VERY_LIGHT` on).
     pub wet: bool,
     /// Host vehicle id in effect.
     pub host_id: Option<u64>,
@@ -403,6 +408,11 @@ fn round_to_grid(p: DVec3, grid: f64) -> DVec3 {
     }
 }
 
+/// The road state of `gt` under `options` (see [`Scene::wet`]).
+fn road_wet(options: &SceneOptions, gt: &osi3::GroundTruth) -> bool {
+    options.road_wet.unwrap_or_else(|| is_wet(gt))
+}
+
 fn is_wet(gt: &osi3::GroundTruth) -> bool {
     use osi3::environmental_conditions::Precipitation as P;
     let film = gt.lane.iter().any(|l| {
@@ -490,6 +500,7 @@ pub fn default_stationary_asset(obj: &osi3::StationaryObject) -> AssetRef {
 
 /// Hash of everything the static world is built from.
 fn static_signature(gt: &osi3::GroundTruth, wet_materials: bool) -> u64 {
+    // `wet_materials`: the road uses its wet variants.
     let mut h = std::collections::hash_map::DefaultHasher::new();
     for l in &gt.lane {
         object_id(l.id.as_ref()).hash(&mut h);
@@ -522,7 +533,7 @@ fn static_signature(gt: &osi3::GroundTruth, wet_materials: bool) -> u64 {
         };
         key.encode_to_vec().hash(&mut h);
     }
-    (wet_materials && is_wet(gt)).hash(&mut h);
+    wet_materials.hash(&mut h);
     h.finish()
 }
 
@@ -892,7 +903,7 @@ impl Scene {
         self.warnings.clear();
         let mut report = SceneUpdate::default();
         self.host_id = self.host_override.or_else(|| gt_host_id(gt));
-        self.wet = is_wet(gt);
+        self.wet = road_wet(&self.options, gt);
         if self.options.origin.is_none()
             && let Some(h) = host_object(gt, self.host_id)
         {
@@ -903,7 +914,8 @@ impl Scene {
             }
         }
         if report.rebased
-            || static_signature(gt, self.options.use_wet_materials) != self.static_signature
+            || static_signature(gt, self.options.use_wet_materials && self.wet)
+                != self.static_signature
         {
             self.rebuild_static(gt)?;
             report.static_rebuilt = true;
@@ -1164,7 +1176,7 @@ impl Scene {
             part_material,
         };
         self.static_owners = w.owners;
-        self.static_signature = static_signature(gt, self.options.use_wet_materials);
+        self.static_signature = static_signature(gt, self.options.use_wet_materials && self.wet);
         self.static_revision += 1;
         Ok(())
     }

@@ -17,6 +17,9 @@
 //! firing time (`lidar.scan_motion`), each hit gives a [`detection::Return`] (LiDAR equation,
 //! [`signal`]), the solar background of the surface is added, and the [`detection::Detector`] turns
 //! the returns into echoes — all sub-rays in one waveform (`lidar.mixed_pixels` on) or per surface.
+//! A sub-ray that meets glass (`space.transmission`, a material with a slab transmittance τ at the
+//! LiDAR band) goes on behind it: the pane returns its own reflection, every surface behind it
+//! returns with τ² (two-way), up to [`MAX_PANES`] panes.
 //! Each echo is a point `range × beam direction` in the sensor frame of its firing time, moved
 //! into the sensor frame of the measurement time (ego motion during the sweep compensated, as
 //! drivers de-skew with the per-point timestamps; moving objects keep their rolling distortion),
@@ -71,6 +74,9 @@ use crate::world::SensorWorld;
 use detection::{Detector, Echo, IntensityCalibration, Return};
 use scan::{Firing, Preset, ScanPattern};
 use signal::{SignalConfig, SignalPlan, SolarPlan};
+
+/// Most glass panes a sub-ray passes through (`space.transmission`).
+pub const MAX_PANES: u32 = 4;
 
 /// Pulses per parallel work item (their sub-rays are traced as one batch).
 pub const CHUNK_PULSES: usize = 256;
@@ -455,61 +461,83 @@ impl LidarEngine {
             let mut background_w = 0.0;
             let mut shadow_tested: Option<bool> = None;
             for j in 0..m {
-                let Some(hit) = s.hits[k * m + j] else {
+                let Some(first) = s.hits[k * m + j] else {
                     continue;
                 };
-                let ray = &s.rays[k * m + j];
+                let ray = s.rays[k * m + j];
                 let d = ray.direction;
-                let mut range = hit.distance_m;
-                if dt != 0.0 && hit.object_id.is_some() && hit.velocity_m_s != DVec3::ZERO {
-                    // First-order re-intersection with the tangent plane moved by v·dt.
-                    let n = hit.geometric_normal;
-                    let dn = d.dot(n);
-                    if dn.abs() > 1e-3 {
-                        range += (hit.velocity_m_s * dt).dot(n) / dn;
+                // `space.transmission`: a pane (glass) returns its own reflection and passes the
+                // rest on; each surface behind it returns with the two-way transmittance τ² of the
+                // panes in front (up to `MAX_PANES`).
+                let mut next = Some(first);
+                let mut pane_t = 1.0;
+                let mut crossed = 0;
+                while let Some(hit) = next.take() {
+                    let mut range = hit.distance_m;
+                    if dt != 0.0 && hit.object_id.is_some() && hit.velocity_m_s != DVec3::ZERO {
+                        // First-order re-intersection with the tangent plane moved by v·dt.
+                        let n = hit.geometric_normal;
+                        let dn = d.dot(n);
+                        if dn.abs() > 1e-3 {
+                            range += (hit.velocity_m_s * dt).dot(n) / dn;
+                        }
+                        if !(range > 0.0 && range <= self.t_max_m) {
+                            continue;
+                        }
                     }
-                    if !(range > 0.0 && range <= self.t_max_m) {
-                        continue;
+                    let mat = input.materials.get(hit.material);
+                    let n = hit.facing_normal();
+                    let (brdf, cos) = if self.incidence {
+                        (
+                            mat.eval_brdf_with(self.band, -d, -d, n, &self.material_effects),
+                            hit.cos_incidence(d),
+                        )
+                    } else {
+                        (
+                            mat.eval_brdf_with(self.band, n, n, n, &self.material_effects),
+                            1.0,
+                        )
+                    };
+                    let power = input
+                        .signal
+                        .power_w(self.sub_rays[j].weight, brdf, cos, range)
+                        * pane_t
+                        * pane_t;
+                    let (key, object_id) = surface_key(&hit, input.scene);
+                    s.tagged.push((
+                        key,
+                        Return {
+                            range_m: range,
+                            power_w: power,
+                            object_id,
+                        },
+                    ));
+                    if self.solar_background
+                        && let Some(sun) = &input.solar
+                    {
+                        // Shadow ray only where the sun can light the surface (cos θ_s > 0).
+                        let sunlit = n.dot(sun.sun_dir) > 0.0
+                            && *shadow_tested.get_or_insert_with(|| {
+                                let p = ray.origin + d * hit.distance_m + n * 1e-3;
+                                !input
+                                    .space
+                                    .any_hit(&Ray::new(p, sun.sun_dir).with_t_max(1e4))
+                            });
+                        background_w += self.sub_rays[j].weight
+                            * pane_t
+                            * sun.power_w(mat.diffuse_albedo(self.band), n, sunlit);
                     }
-                }
-                let mat = input.materials.get(hit.material);
-                let n = hit.facing_normal();
-                let (brdf, cos) = if self.incidence {
-                    (
-                        mat.eval_brdf_with(self.band, -d, -d, n, &self.material_effects),
-                        hit.cos_incidence(d),
-                    )
-                } else {
-                    (
-                        mat.eval_brdf_with(self.band, n, n, n, &self.material_effects),
-                        1.0,
-                    )
-                };
-                let power = input
-                    .signal
-                    .power_w(self.sub_rays[j].weight, brdf, cos, range);
-                let (key, object_id) = surface_key(&hit, input.scene);
-                s.tagged.push((
-                    key,
-                    Return {
-                        range_m: range,
-                        power_w: power,
-                        object_id,
-                    },
-                ));
-                if self.solar_background
-                    && let Some(sun) = &input.solar
-                {
-                    // Shadow ray only where the sun can light the surface (cos θ_s > 0).
-                    let sunlit = n.dot(sun.sun_dir) > 0.0
-                        && *shadow_tested.get_or_insert_with(|| {
-                            let p = ray.origin + d * hit.distance_m + n * 1e-3;
-                            !input
+                    if input.space.effects.transmission && crossed < MAX_PANES {
+                        let tau = mat.transmittance(self.band, hit.cos_incidence(d));
+                        if tau > 0.0 {
+                            pane_t *= tau;
+                            crossed += 1;
+                            let eps = crate::space::surface_epsilon(hit.point, hit.distance_m);
+                            next = input
                                 .space
-                                .any_hit(&Ray::new(p, sun.sun_dir).with_t_max(1e4))
-                        });
-                    background_w += self.sub_rays[j].weight
-                        * sun.power_w(mat.diffuse_albedo(self.band), n, sunlit);
+                                .closest_hit(&ray.with_t_min(hit.distance_m + eps));
+                        }
+                    }
                 }
             }
             if s.tagged.is_empty() {
@@ -644,6 +672,9 @@ impl LidarSensor {
         let resolved = lidar.resolve()?;
         let effects = Effects::with_switches(&crate::effects::catalogue(), &config.effects)
             .map_err(|e| ModelError::Config(format!("`effects`: {e}")))?;
+        // Environment and space-design switches (wet road, multipath, transmission, ...) reach the
+        // scene and the space through the world.
+        let world = SensorWorld::for_effects(&effects);
         let engine = Self::plan(&config, &lidar, &resolved, &effects)?;
         let recognition = LidarRecognition::new(&lidar.recognition)?;
         Ok(LidarSensor {
@@ -651,7 +682,7 @@ impl LidarSensor {
             lidar,
             resolved,
             effects,
-            world: SensorWorld::new(),
+            world,
             engine,
             recognition,
             cycle: 0,

@@ -133,6 +133,9 @@ impl RadarSensor {
         let radar = config.radar.clone().unwrap_or_default();
         let effects = Effects::with_switches(&crate::effects::catalogue(), &config.effects)
             .map_err(|e| ModelError::Config(format!("`effects`: {e}")))?;
+        // Environment and space-design switches (wet road, multipath, transmission, ...) reach the
+        // scene and the space through the world.
+        let world = SensorWorld::for_effects(&effects);
         radar.front_end.validate()?;
         let propagator = Propagator::new(
             &radar.propagation,
@@ -154,7 +157,7 @@ impl RadarSensor {
             seed: config.seed.unwrap_or(0),
             radar,
             effects,
-            world: SensorWorld::new(),
+            world,
             propagator,
             chain,
             recognition,

@@ -17,7 +17,7 @@
 //!   the field vector is reflected with the polarisation-aware coefficients Γ_TE, Γ_TM of the
 //!   material (`Material::reflection_mmwave`; a conductor gives −1/+1) in the s/p basis
 //!   (`s = d × n`, `p = s × d`) and the tube continues along `r = d − 2(d·n)n` (up to
-//!   `max_bounces`). Slabs that transmit more than they reflect (glass, bumpers:
+//!   `max_bounces`; one with `space.multipath` off). Slabs that transmit more than they reflect (glass, bumpers:
 //!   `Material::transmission_mmwave`, `space.transmission`) are crossed: the field is multiplied by
 //!   T_TE, T_TM, the return by the same effective co-polar coefficient (reciprocity, same
 //!   surfaces on the way back); a slab of the target itself also scatters its Γ back to the radar.
@@ -61,7 +61,7 @@ use crate::environment::weather::{
     RAIN_EXTINCTION as ENV_RAIN, Weather,
 };
 use crate::sensor::ModelError;
-use crate::space::{Hit, Ray, Space, TRANSMISSION};
+use crate::space::{Hit, Ray, Space};
 use crate::world::WorldFrame;
 
 /// Speed of light, m/s.
@@ -250,7 +250,6 @@ struct Switches {
     gas: bool,
     fog: bool,
     micro_doppler: bool,
-    transmission: bool,
     material: MaterialEffects,
 }
 
@@ -526,7 +525,6 @@ impl Propagator {
                 gas: effects.is_on(&ATMOSPHERIC_ABSORPTION) && effects.is_on(&ENV_GAS),
                 fog: effects.is_on(&ENV_FOG),
                 micro_doppler: effects.is_on(&MICRO_DOPPLER),
-                transmission: effects.is_on(&TRANSMISSION),
                 material: MaterialEffects::from_effects(effects),
             },
             antennas: Antennas::new(front_end, effects),
@@ -951,8 +949,10 @@ impl Propagator {
         let mut bounces = 0u32;
         let (az_d, el_d) = az_el(&ctx.to_sensor, d);
         let g_tx = self.antennas.tx_gain_dbi(az_d, el_d);
+        // `space.multipath` (on the space): more than one reflection per tube.
+        let max_bounces = ctx.space.effects.path_interactions(self.cfg.max_bounces);
         let mut guard = 0;
-        while bounces < self.cfg.max_bounces && guard < 16 {
+        while bounces < max_bounces && guard < 16 {
             guard += 1;
             let eps = surface_epsilon(origin);
             let remaining = 2.0 * ctx.max_range_m - length;
@@ -976,7 +976,7 @@ impl Propagator {
             let Some(Some(coeff)) = self.coefficients.get(hit.material.0 as usize) else {
                 break;
             };
-            let may_cross = self.sw.transmission && coeff.slab;
+            let may_cross = ctx.space.effects.transmission && coeff.slab;
             let foreign = !on_target && (bounces == 0 || !self.sw.multipath);
             if foreign && (!may_cross || bounces > 0) {
                 break;

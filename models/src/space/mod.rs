@@ -140,6 +140,27 @@ impl SpaceEffects {
             transmission: effects.is_on(&TRANSMISSION),
         }
     }
+
+    /// Surface interactions a path may have when `configured` are asked for: all of them with
+    /// `space.multipath`, else at most one (only the first surface is found).
+    pub fn path_interactions(&self, configured: u32) -> u32 {
+        if self.multipath {
+            configured
+        } else {
+            configured.min(1)
+        }
+    }
+
+    /// Sampled diffuse bounce rays per primary ray when `configured` are asked for: all of them with
+    /// `space.multipath` and `space.diffuse_bounces`, else none (a bounce ray meets a second surface,
+    /// which `space.multipath` off excludes; `space.diffuse_bounces` off excludes diffuse sampling).
+    pub fn diffuse_bounce_rays(&self, configured: u32) -> u32 {
+        if self.multipath && self.diffuse_bounces {
+            configured
+        } else {
+            0
+        }
+    }
 }
 
 /// A ray in the scene frame: points `origin + t·direction` for `t ∈ [t_min, t_max]`.

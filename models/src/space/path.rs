@@ -161,11 +161,7 @@ impl Space {
         path.origin = ray.origin;
         path.vertices.clear();
         path.escape = None;
-        let max_bounces = if self.effects.multipath {
-            policy.max_bounces
-        } else {
-            policy.max_bounces.min(1)
-        };
+        let max_bounces = self.effects.path_interactions(policy.max_bounces);
         let p_diffuse = if self.effects.diffuse_bounces {
             policy.diffuse_probability
         } else {
