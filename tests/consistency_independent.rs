@@ -28,20 +28,11 @@ fn seeds() -> Vec<u64> {
         .unwrap_or_else(|| DEFAULT_SEEDS.to_vec())
 }
 
-/// TEMPORARY (until the catalogue rename of the main worktree lands here): the old id of the
-/// spreading effect under its new name. Remove once `radar.toml` says `radar.two_way_spreading`.
-fn canonical(id: &str) -> String {
-    match id {
-        "radar.spreading_exponent" => "radar.two_way_spreading".into(),
-        other => other.into(),
-    }
-}
-
-/// What came out of one run, ids canonical.
+/// What came out of one run.
 struct Outcome {
     status: String,
     accepted: Vec<String>,
-    /// Tie groups (canonical member ids).
+    /// Tie groups (member ids).
     ties: Vec<Vec<String>>,
 }
 
@@ -49,12 +40,8 @@ impl Outcome {
     fn from(s: &Summary) -> Outcome {
         Outcome {
             status: s.status.clone(),
-            accepted: s.accepted().iter().map(|a| canonical(a)).collect(),
-            ties: s
-                .tie_groups
-                .iter()
-                .map(|t| t.members.iter().map(|m| canonical(m)).collect())
-                .collect(),
+            accepted: s.accepted(),
+            ties: s.tie_groups.iter().map(|t| t.members.clone()).collect(),
         }
     }
 

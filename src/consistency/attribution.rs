@@ -9,12 +9,13 @@
 //! nuisance) is fitted in closed form and reported, never silently absorbed into an effect.
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 use rayon::prelude::*;
 use serde::Serialize;
 
 use super::campaign::Campaign;
-use super::catalogue::{Catalogue, EffectSignature};
+use super::catalogue::{Catalogue, EffectSignature, MAX_PARAMS, Param};
 use super::{NVARS, Row, V_RANGE, quantity, tolerance_of};
 
 /// |cos| between centred signatures above which two effects are not separable on the design.
@@ -125,6 +126,7 @@ pub fn aggregate(rows: &[Row], q: &str, campaign: &Campaign) -> (Vec<Obs>, Noise
                 let level = x[super::V_SIM] * 10f64.powf(r / 10.0);
                 10.0 / std::f64::consts::LN_10 * (1.0 / 12f64.sqrt()) / level.max(1.0)
             }
+            quantity::POINTS_LOG_RATIO => points_gt_sigma(&x, sig_r),
             _ if own_sigma => x[super::V_PRX] / nf.sqrt(),
             _ => 0.0,
         };
@@ -173,6 +175,18 @@ pub fn aggregate(rows: &[Row], q: &str, campaign: &Campaign) -> (Vec<Obs>, Noise
     (obs, noise)
 }
 
+/// The variable to stratify an effect's CV folds over: its first explanatory variable when none of
+/// them describes the target itself (area, edge, reflectivity, height, width), else None.
+fn stratified_variable(e: &dyn EffectSignature) -> Option<usize> {
+    let idx: Vec<usize> = e
+        .explanatory()
+        .iter()
+        .filter_map(|v| super::VAR_NAMES.iter().position(|n| n == v))
+        .collect();
+    let target_level = idx.iter().any(|i| super::cli::TARGET_VARS.contains(i));
+    (!target_level).then(|| idx.first().copied()).flatten()
+}
+
 /// Whether leave-one-target-out folds keep, in every fold, two or more distinct values of each
 /// target-level variable that varies across the targets (and two or more targets at all).
 fn target_folds_identify(obs: &[Obs]) -> bool {
@@ -196,6 +210,31 @@ fn target_folds_identify(obs: &[Obs]) -> bool {
         };
         distinct(None) < 2 || targets.keys().all(|&t| distinct(Some(t)) >= 2)
     })
+}
+
+/// Ground-truth uncertainty of a station's points-on-target log ratio (ln units): the measured and
+/// the simulated scans sample the target's silhouette on the beam lattice with offsets that differ
+/// by the ground-truth error σ, so a whole beam column (row) flips on or off at a vertical
+/// (horizontal) edge with probability p = min(σ / spacing, ½); plus the range error, n ∝ 1/R².
+///
+/// With n simulated points on a W × H target and a lattice of a × b beams across it (a/b = W/H,
+/// a·b = n; the beam spacings are not in the campaign), Var(Δn) = 2·b²·p_v(1 − p_v) +
+/// 2·a²·p_h(1 − p_h), p_v = σ·a/W, p_h = σ·b/H, and σ_ln² = Var(Δn)/n² + (2σ/R)².
+fn points_gt_sigma(x: &[f64; NVARS], sigma_m: f64) -> f64 {
+    let n = (x[super::V_SIM].exp() - 0.5).max(1.0);
+    let (w, h, r) = (x[8], x[7], x[V_RANGE].max(0.1));
+    let range_term = 2.0 * sigma_m / r;
+    if !(w > 0.0 && h > 0.0) || sigma_m <= 0.0 {
+        return range_term;
+    }
+    let a = (n * w / h).sqrt().max(1.0);
+    let b = (n / a).max(1.0);
+    let flip = |p: f64| {
+        let p = p.min(0.5);
+        p * (1.0 - p)
+    };
+    let var = 2.0 * b * b * flip(sigma_m * a / w) + 2.0 * a * a * flip(sigma_m * b / h);
+    (var / (n * n) + range_term * range_term).sqrt()
 }
 
 /// A fitted set of effects.
@@ -386,13 +425,46 @@ impl Design<'_> {
             .iter()
             .map(|o| groups.binary_search(&o.group).unwrap_or(0) % folds)
             .collect();
+        self.cv_folds(w, effs, init, &fold_of, folds)
+    }
+
+    /// Station folds stratified over the explanatory variable `v`: the stations sorted by it (ties
+    /// by station id) and dealt round-robin into [`MAX_CV_FOLDS`] folds, so every fold spans the
+    /// variable's range and no fold asks the effect to extrapolate beyond what it was fitted on.
+    fn stratified_folds(&self, v: usize) -> (Vec<usize>, usize) {
+        let mut order: Vec<usize> = (0..self.obs.len()).collect();
+        order.sort_by(|&a, &b| {
+            self.obs[a].x[v]
+                .total_cmp(&self.obs[b].x[v])
+                .then(self.obs[a].station.cmp(&self.obs[b].station))
+        });
+        let folds = self.obs.len().min(MAX_CV_FOLDS);
+        let mut fold_of = vec![0; self.obs.len()];
+        for (rank, &i) in order.iter().enumerate() {
+            fold_of[i] = rank % folds.max(1);
+        }
+        (fold_of, folds)
+    }
+
+    /// The CV error over given folds (see [`Design::cv`]).
+    fn cv_folds(
+        &self,
+        w: &[f64],
+        effs: &[&dyn EffectSignature],
+        init: &[Vec<f64>],
+        fold_of: &[usize],
+        folds: usize,
+    ) -> f64 {
+        if folds < 2 {
+            return f64::NAN;
+        }
         let n = self.obs.len();
         let parts: Vec<f64> = (0..folds)
             .into_par_iter()
             .map(|g| {
                 let wt: Vec<f64> = w
                     .iter()
-                    .zip(&fold_of)
+                    .zip(fold_of)
                     .map(|(wi, f)| if *f == g { 0.0 } else { *wi })
                     .collect();
                 let fit = if effs.is_empty() {
@@ -416,7 +488,7 @@ impl Design<'_> {
                     .iter()
                     .zip(w)
                     .zip(&sum)
-                    .zip(&fold_of)
+                    .zip(fold_of)
                     .filter(|(_, f)| **f == g)
                     .map(|(((o, wi), si), _)| wi * (o.r - si - fit.offset).powi(2))
                     .sum::<f64>()
@@ -714,11 +786,28 @@ pub fn attribute_quantity(
                         current.iter().map(|&i| cands[i]).collect();
                     let effs: Vec<&dyn EffectSignature> =
                         before_effs.iter().copied().chain([e]).collect();
-                    let (cv0, cv1) = rayon::join(
-                        || cv_current.unwrap_or_else(|| d.cv(&w, &before_effs, &cur_fit.params)),
-                        || d.cv(&w, &effs, &fit.params),
-                    );
-                    cv_new = Some(cv1);
+                    // An effect of the geometry or the received power alone (no target-level
+                    // variable) is cross-validated over station folds stratified by its first
+                    // explanatory variable; a target-level law over the campaign's groups.
+                    let stratify = stratified_variable(e);
+                    let (cv0, cv1) = match stratify {
+                        Some(v) => {
+                            let (fold_of, folds) = d.stratified_folds(v);
+                            rayon::join(
+                                || d.cv_folds(&w, &before_effs, &cur_fit.params, &fold_of, folds),
+                                || d.cv_folds(&w, &effs, &fit.params, &fold_of, folds),
+                            )
+                        }
+                        None => rayon::join(
+                            || {
+                                cv_current
+                                    .unwrap_or_else(|| d.cv(&w, &before_effs, &cur_fit.params))
+                            },
+                            || d.cv(&w, &effs, &fit.params),
+                        ),
+                    };
+                    // The cache holds group-fold CV errors only.
+                    cv_new = if stratify.is_none() { Some(cv1) } else { None };
                     gates.cv = cv0.is_nan() || cv1 < cv0;
                     cv_gain = Some(if cv0 > 0.0 { 1.0 - cv1 / cv0 } else { 0.0 });
                 }
@@ -1113,8 +1202,133 @@ pub fn attribute(
     catalogue: &Catalogue,
     rows: &[Row],
 ) -> Vec<QuantityAttribution> {
-    super::attribution_quantities(campaign.sensor.kind)
-        .iter()
-        .filter_map(|q| attribute_quantity(campaign, catalogue, rows, q))
-        .collect()
+    // One effect, several quantities (joint signatures): the quantities are attributed in order;
+    // an effect's entry on a later quantity shares the parameters of the same name with its entry
+    // on an earlier one. Accepted there: those parameters are fixed at the fitted values here
+    // (fog's α from the intensities sets the points it drops); evaluated there and not accepted:
+    // the effect cannot be this quantity's cause either and is no candidate here.
+    let mut out: Vec<QuantityAttribution> = Vec::new();
+    for q in super::attribution_quantities(campaign.sensor.kind) {
+        let mut effects: Vec<Arc<dyn EffectSignature>> = Vec::new();
+        for e in catalogue.effects.iter().filter(|e| e.quantity() == *q) {
+            let earlier = out.iter().find_map(|a| {
+                a.effects
+                    .iter()
+                    .find(|r| r.id == e.id())
+                    .map(|r| (a.accepted.contains(&r.id), r))
+            });
+            match earlier {
+                None => effects.push(e.clone()),
+                Some((false, _)) => {}
+                Some((true, r)) => {
+                    let fixed: Vec<Option<f64>> = e
+                        .params()
+                        .iter()
+                        .map(|p| {
+                            r.params
+                                .iter()
+                                .find(|f| f.name == p.name)
+                                .map(|f| f.value.clamp(p.bounds[0], p.bounds[1]))
+                        })
+                        .collect();
+                    effects.push(Arc::new(Conditioned::new(e.clone(), fixed)));
+                }
+            }
+        }
+        let view = Catalogue {
+            sensor: catalogue.sensor.clone(),
+            version: catalogue.version.clone(),
+            effects,
+        };
+        if let Some(a) = attribute_quantity(campaign, &view, rows, q) {
+            out.push(a);
+        }
+    }
+    out
+}
+
+/// An effect entry with some parameters fixed at values fitted on another quantity (a joint
+/// signature across quantities); the free parameters are fitted as usual.
+struct Conditioned {
+    inner: Arc<dyn EffectSignature>,
+    /// Per parameter of `inner`: the fixed value, or None (free).
+    fixed: Vec<Option<f64>>,
+    free: Vec<Param>,
+    physics: String,
+}
+
+impl Conditioned {
+    fn new(inner: Arc<dyn EffectSignature>, fixed: Vec<Option<f64>>) -> Conditioned {
+        let free = inner
+            .params()
+            .iter()
+            .zip(&fixed)
+            .filter(|(_, f)| f.is_none())
+            .map(|(p, _)| p.clone())
+            .collect();
+        let shared: Vec<String> = inner
+            .params()
+            .iter()
+            .zip(&fixed)
+            .filter_map(|(p, f)| f.map(|v| format!("{} = {v:.4}", p.name)))
+            .collect();
+        let physics = format!(
+            "{} [joint: {} fixed by this effect's fit on another quantity]",
+            inner.physics(),
+            shared.join(", ")
+        );
+        Conditioned {
+            inner,
+            fixed,
+            free,
+            physics,
+        }
+    }
+}
+
+impl EffectSignature for Conditioned {
+    fn id(&self) -> &str {
+        self.inner.id()
+    }
+    fn quantity(&self) -> &str {
+        self.inner.quantity()
+    }
+    fn params(&self) -> &[Param] {
+        &self.free
+    }
+    fn eval(&self, x: &[f64], p: &[f64]) -> f64 {
+        let mut full = [0.0; MAX_PARAMS];
+        let mut k = 0;
+        for (slot, f) in full.iter_mut().zip(&self.fixed) {
+            *slot = match f {
+                Some(v) => *v,
+                None => {
+                    k += 1;
+                    p.get(k - 1).copied().unwrap_or(0.0)
+                }
+            };
+        }
+        self.inner.eval(x, &full[..self.fixed.len()])
+    }
+    fn explanatory(&self) -> &[String] {
+        self.inner.explanatory()
+    }
+    fn layer(&self) -> &[String] {
+        self.inner.layer()
+    }
+    fn signature(&self) -> &str {
+        self.inner.signature()
+    }
+    fn kind(&self) -> super::catalogue::EffectKind {
+        self.inner.kind()
+    }
+    fn confusable_with(&self) -> &[String] {
+        self.inner.confusable_with()
+    }
+    fn discriminating_experiment(&self) -> &str {
+        self.inner.discriminating_experiment()
+    }
+    fn physics(&self) -> &str {
+        &self.physics
+    }
 }

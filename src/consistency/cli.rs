@@ -228,16 +228,16 @@ pub fn run_with_catalogue(
 pub const MIN_TRAINING_TARGETS: usize = 3;
 
 /// Explanatory variables that describe a target itself (not the geometry of a frame): a held-out
-/// target must not take the only example of a value away from the training split (a size law
-/// cannot be learnt from the sizes that remain when the only large reflector is held out).
+/// target must lie inside the training split's span of each (a size law learnt on the small
+/// reflectors cannot be judged on the only large one).
 pub(crate) const TARGET_VARS: [usize; 5] = [4, 5, 6, 7, 8]; // area, edge, reflectivity, height, width
 
 /// The held-out split of a campaign (`[split] holdout_fraction`, seeded): the rows that judge the
 /// closed loop and that the attribution never fits.
 ///
 /// Whole targets are held out (seeded order) while the training split keeps at least
-/// [`MIN_TRAINING_TARGETS`] targets and every target-level value (area, edge, reflectivity,
-/// height, width) of a held-out target is still represented in it. Where that holds for no target
+/// [`MIN_TRAINING_TARGETS`] targets and each held-out target lies inside the training targets'
+/// span of every target-level variable (area, edge, reflectivity, height, width). Where that holds for no target
 /// (one target, three sizes of one each), stations are held out instead: per target, every
 /// ⌈1/fraction⌉-th station in range order from a seeded phase, so the held-out stations span the
 /// range of every target and the training split is never empty.
@@ -283,14 +283,21 @@ pub fn holdout(campaign: &Campaign, rows: &[super::Row]) -> Holdout {
             break;
         }
         let value = |t: u64, v: usize| first[&t].x[v];
-        let represented = TARGET_VARS.iter().all(|&v| {
-            targets.iter().any(|&o| {
-                o != t
-                    && !held.contains(&o)
-                    && (value(o, v) - value(t, v)).abs() <= 1e-6 * value(t, v).abs().max(1e-9)
-            })
+        // The held-out target must sit inside the training targets' span of every target-level
+        // variable (interpolation, never extrapolation).
+        let inside = TARGET_VARS.iter().all(|&v| {
+            let rest = targets
+                .iter()
+                .filter(|&&o| o != t && !held.contains(&o))
+                .map(|&o| value(o, v));
+            let (lo, hi) = rest.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+                (lo.min(x), hi.max(x))
+            });
+            let x = value(t, v);
+            let eps = 1e-6 * x.abs().max(1e-9);
+            x >= lo - eps && x <= hi + eps
         });
-        if represented {
+        if inside {
             held.push(t);
         }
     }
@@ -405,7 +412,25 @@ fn actions(
             ) else {
                 continue;
             };
-            let p: Vec<f64> = res.params.iter().map(|p| p.value).collect();
+            // The entry's parameters by name: fitted here, or (a joint signature) fixed by the
+            // same effect's fit on another quantity.
+            let p: Vec<f64> = e
+                .params()
+                .iter()
+                .map(|par| {
+                    res.params
+                        .iter()
+                        .chain(
+                            attribution
+                                .iter()
+                                .flat_map(|a| a.effects.iter())
+                                .filter(|r| &r.id == id)
+                                .flat_map(|r| r.params.iter()),
+                        )
+                        .find(|f| f.name == par.name)
+                        .map_or(par.nominal, |f| f.value)
+                })
+                .collect();
             let q = qa.quantity.as_str();
             // RMS of the rows of `q` after subtracting `s` and an offset fitted on the training
             // split: the same figure with and without the effect.

@@ -577,6 +577,30 @@ fn lidar_target(
     })
 }
 
+/// Whether a LiDAR detection's footprint may straddle the edge of its target's silhouette: the
+/// point, in the target's box frame, lies within the footprint radius R·θ/2 (θ = the campaign's
+/// `beam_divergence_mrad`, 3 mrad when absent) plus 2 σ_gt of a face edge.
+fn edge_beam(
+    campaign: &Campaign,
+    geom: &FrameGeom,
+    g: &TargetGeometry,
+    d: &osi3::LidarDetection,
+) -> bool {
+    let Some(pos) = d.position.as_ref() else {
+        return false;
+    };
+    if !(g.dims.y > 0.0 && g.dims.z > 0.0) {
+        return false;
+    }
+    let p = osiris_models::frames::Spherical::from_osi(pos).to_cartesian();
+    let l = g
+        .pose
+        .inverse_transform_point(geom.sensor.point_to_global(p));
+    let theta = campaign.sensor.beam_divergence_mrad.unwrap_or(3.0) * 1e-3;
+    let margin = 0.5 * theta * p.length() + 2.0 * campaign.uncertainty.gt_position_sigma_m.max(0.0);
+    l.y.abs() > 0.5 * g.dims.y - margin || l.z.abs() > 0.5 * g.dims.z - margin
+}
+
 fn lidar_frame(
     campaign: &Campaign,
     geom: &FrameGeom,
@@ -645,6 +669,38 @@ fn lidar_frame(
             None => {}
         }
     }
+    // Received-power proxy of each target, dB: the mean simulated intensity of its points, less
+    // 20·log10 R where the logged intensity is range-compensated reflectivity (the default; an
+    // intensity semantics that says "power" or "raw" is taken as received power).
+    let power_semantics = campaign
+        .sensor
+        .quantity_semantics
+        .get("intensity")
+        .is_some_and(|s| {
+            let s = s.to_ascii_lowercase();
+            s.contains("power") || s.contains("raw")
+        });
+    let s_prx: Vec<f64> = (0..nt)
+        .map(|i| {
+            let v: Vec<f64> = s
+                .iter()
+                .zip(&s_t)
+                .filter(|(_, t)| **t == Some(i))
+                .filter_map(|(d, _)| d.intensity)
+                .collect();
+            if v.is_empty() {
+                return 0.0;
+            }
+            let mean = v.iter().sum::<f64>() / v.len() as f64;
+            let r = geom.targets[i].range_m.max(0.1);
+            10.0 * mean.max(1e-3).log10()
+                - if power_semantics {
+                    0.0
+                } else {
+                    20.0 * r.log10()
+                }
+        })
+        .collect();
     out.counts.meas_unassociated += m_gap;
     out.counts.sim_unassociated += s_gap;
     let mut frame_x = [0.0; NVARS];
@@ -679,6 +735,7 @@ fn lidar_frame(
         let station = station_key(g.id, g.range_m, g.azimuth_deg);
         let (mc, sc) = (m_count[i] as f64, s_count[i] as f64);
         x[super::V_SIM] = (sc + 0.5).ln();
+        x[super::V_PRX] = s_prx[i];
         out.rows.push(Row {
             quantity: quantity::POINTS_LOG_RATIO,
             frame,
@@ -766,6 +823,13 @@ fn lidar_frame(
             }
         };
         push(quantity::RANGE_M, rm, rs);
+        // Intensity only from beams whose footprint lies wholly on the target: at the silhouette's
+        // edge the lit fraction of the footprint, and so the intensity, hinges on sub-footprint
+        // positions that the ground truth does not pin down (σ_gt) — an edge beam's intensity
+        // residual says nothing about the physics.
+        if edge_beam(campaign, geom, g, d) {
+            continue;
+        }
         if let (Some(im), Some(is)) = (d.intensity, s[j].intensity) {
             push(quantity::INTENSITY_PCT, im, is);
             // Ratio in dB; the `sim` variable of this row is the simulated intensity in %.
