@@ -214,26 +214,34 @@ fn target_folds_identify(obs: &[Obs]) -> bool {
 
 /// Ground-truth uncertainty of a station's points-on-target log ratio (ln units): the measured and
 /// the simulated scans sample the target's silhouette on the beam lattice with offsets that differ
-/// by the ground-truth error σ, so a whole beam column (row) flips on or off at a vertical
-/// (horizontal) edge with probability p = min(σ / spacing, ½); plus the range error, n ∝ 1/R².
+/// by the ground-truth error δ (σ per axis), so a beam column (row) flips on or off at each vertical
+/// (horizontal) edge with probability E|δ|/spacing = σ·√(2/π)/spacing (at most ½); plus the range
+/// error, n ∝ 1/R².
 ///
-/// With n simulated points on a W × H target and a lattice of a × b beams across it (a/b = W/H,
-/// a·b = n; the beam spacings are not in the campaign), Var(Δn) = 2·b²·p_v(1 − p_v) +
-/// 2·a²·p_h(1 − p_h), p_v = σ·a/W, p_h = σ·b/H, and σ_ln² = Var(Δn)/n² + (2σ/R)².
+/// A W × H target at range R on a lattice of angular spacings Δaz × Δel (the simulated points'
+/// own, `beam_az` / `beam_el`) spans a = W/(R·Δaz) columns of b = H/(R·Δel) beams: Var(Δn) =
+/// 2·b²·p_v(1 − p_v) + 2·a²·p_h(1 − p_h), σ_ln² = Var(Δn)/n² + (2σ/R)², n = a·b. Without a
+/// known lattice only the range term is used.
 fn points_gt_sigma(x: &[f64; NVARS], sigma_m: f64) -> f64 {
-    let n = (x[super::V_SIM].exp() - 0.5).max(1.0);
     let (w, h, r) = (x[8], x[7], x[V_RANGE].max(0.1));
     let range_term = 2.0 * sigma_m / r;
-    if !(w > 0.0 && h > 0.0) || sigma_m <= 0.0 {
+    let (daz, del) = (
+        x[super::V_BEAM_AZ].to_radians(),
+        x[super::V_BEAM_EL].to_radians(),
+    );
+    if !(w > 0.0 && h > 0.0 && daz > 0.0 && del > 0.0) || sigma_m <= 0.0 {
         return range_term;
     }
-    let a = (n * w / h).sqrt().max(1.0);
-    let b = (n / a).max(1.0);
+    let (sx, sz) = (r * daz, r * del);
+    let a = (w / sx).max(1.0);
+    let b = (h / sz).max(1.0);
+    let mean_shift = sigma_m * (2.0 / std::f64::consts::PI).sqrt();
     let flip = |p: f64| {
         let p = p.min(0.5);
         p * (1.0 - p)
     };
-    let var = 2.0 * b * b * flip(sigma_m * a / w) + 2.0 * a * a * flip(sigma_m * b / h);
+    let var = 2.0 * b * b * flip(mean_shift / sx) + 2.0 * a * a * flip(mean_shift / sz);
+    let n = a * b;
     (var / (n * n) + range_term * range_term).sqrt()
 }
 

@@ -51,9 +51,11 @@ pub const VAR_NAMES: [&str; NVARS] = [
     "mount_h",      // m, sensor height above the road below it
     "pc_h",         // m, the target's phase centre above the road below it (models/ASSETS.md)
     "wavelength",   // m, the sensor's carrier / laser wavelength (campaign [sensor])
+    "beam_az",      // deg, LiDAR: azimuth spacing of the simulated beams on the target (0 unknown)
+    "beam_el",      // deg, LiDAR: elevation spacing of the simulated beams on the target (0 unknown)
 ];
 /// Number of explanatory variables.
-pub const NVARS: usize = 16;
+pub const NVARS: usize = 18;
 /// Index of `prx`.
 pub const V_PRX: usize = 12;
 /// Index of `range` in [`VAR_NAMES`].
@@ -72,6 +74,10 @@ pub const V_MOUNT_H: usize = 13;
 pub const V_PC_H: usize = 14;
 /// Index of `wavelength`.
 pub const V_WAVELENGTH: usize = 15;
+/// Index of `beam_az`.
+pub const V_BEAM_AZ: usize = 16;
+/// Index of `beam_el`.
+pub const V_BEAM_EL: usize = 17;
 
 /// Residual quantities (natural units in the id).
 pub mod quantity {

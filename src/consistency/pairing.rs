@@ -324,6 +324,8 @@ fn vars(campaign: &Campaign, geom: &FrameGeom, g: &TargetGeometry) -> [f64; NVAR
         geom.sensor_height_m,
         g.phase_centre_height_m,
         campaign.sensor.wavelength_m(),
+        0.0,
+        0.0,
     ]
 }
 
@@ -577,6 +579,20 @@ fn lidar_target(
     })
 }
 
+/// The median gap between distinct sorted angles (rad), in deg; 0 with fewer than two distinct.
+/// Angles closer than 1e-4 rad (0.006°) count as one beam line.
+fn median_spacing_deg(mut a: Vec<f64>) -> f64 {
+    a.retain(|v| v.is_finite());
+    a.sort_by(f64::total_cmp);
+    a.dedup_by(|x, y| (*x - *y).abs() < 1e-4);
+    let mut gaps: Vec<f64> = a.windows(2).map(|w| w[1] - w[0]).collect();
+    if gaps.is_empty() {
+        return 0.0;
+    }
+    gaps.sort_by(f64::total_cmp);
+    gaps[gaps.len() / 2].to_degrees()
+}
+
 /// Whether a LiDAR detection's footprint may straddle the edge of its target's silhouette: the
 /// point, in the target's box frame, lies within the footprint radius R·θ/2 (θ = the campaign's
 /// `beam_divergence_mrad`, 3 mrad when absent) plus 2 σ_gt of a face edge.
@@ -701,6 +717,21 @@ fn lidar_frame(
                 }
         })
         .collect();
+    // The beam lattice on each target: the median spacing of the simulated points' distinct
+    // azimuths and elevations, deg (0 where fewer than two).
+    let s_lattice: Vec<(f64, f64)> = (0..nt)
+        .map(|i| {
+            let mut az = Vec::new();
+            let mut el = Vec::new();
+            for (d, _) in s.iter().zip(&s_t).filter(|(_, t)| **t == Some(i)) {
+                if let Some(p) = d.position.as_ref() {
+                    az.extend(p.azimuth);
+                    el.extend(p.elevation);
+                }
+            }
+            (median_spacing_deg(az), median_spacing_deg(el))
+        })
+        .collect();
     out.counts.meas_unassociated += m_gap;
     out.counts.sim_unassociated += s_gap;
     let mut frame_x = [0.0; NVARS];
@@ -736,6 +767,8 @@ fn lidar_frame(
         let (mc, sc) = (m_count[i] as f64, s_count[i] as f64);
         x[super::V_SIM] = (sc + 0.5).ln();
         x[super::V_PRX] = s_prx[i];
+        x[super::V_BEAM_AZ] = s_lattice[i].0;
+        x[super::V_BEAM_EL] = s_lattice[i].1;
         out.rows.push(Row {
             quantity: quantity::POINTS_LOG_RATIO,
             frame,
