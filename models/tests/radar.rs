@@ -367,13 +367,11 @@ fn ground_two_ray_lobing_follows_the_two_path_formula() {
         let without = paths(config(hs, &off), obj());
         assert!(with.len() > without.len(), "image paths added at {r} m");
         let ratio = coherent_power_w(&with, lam) / coherent_power_w(&without, lam);
-        // Geometry of the strongest direct path (its scattering centre).
-        let best = without
-            .iter()
-            .max_by(|x, y| x.amplitude.norm().total_cmp(&y.amplitude.norm()))
-            .unwrap();
-        let d = best.range_m * best.rx_elevation_rad.cos();
-        let ht = hs + best.range_m * best.rx_elevation_rad.sin();
+        // Geometry of the reflector's phase centre, its apex: (a − t)/(2√3) behind and
+        // (a − t)/(2√6) below the box centre (plate thickness t = 2 mm; models/ASSETS.md).
+        let (a, t) = (0.1, 0.002);
+        let d = r + (a - t) / (2.0 * 3f64.sqrt());
+        let ht = hs - (a - t) / (2.0 * 6f64.sqrt());
         let r_d = (d * d + (ht - hs).powi(2)).sqrt();
         let r_g = (d * d + (ht + hs).powi(2)).sqrt();
         let psi = ((ht + hs) / r_g).asin();

@@ -83,7 +83,9 @@ use glam::DVec3;
 use osiris_proto::{INVALID_ID, osi3};
 use prost::Message as _;
 
-use super::assets::{AssetContext, AssetError, AssetKind, AssetRef, build_asset_with};
+use super::assets::{
+    AssetContext, AssetError, AssetKind, AssetRef, build_asset_with, phase_centre,
+};
 use super::material::{MaterialDb, MaterialError, MaterialId};
 use super::mesh::{Mesh, Part};
 use crate::frames::{
@@ -175,6 +177,9 @@ pub struct SceneMesh {
     pub mesh: Mesh,
     /// `part_material[p]` is the material of `mesh.parts[p]`.
     pub part_material: Vec<MaterialId>,
+    /// The asset's phase centre in the mesh (object) frame, where it has a fixed one
+    /// ([`super::assets::phase_centre`]: a trihedral's apex, a board's face centre).
+    pub phase_centre: Option<DVec3>,
 }
 
 impl SceneMesh {
@@ -278,8 +283,10 @@ impl SceneBuilder {
                 key: "static world".into(),
                 mesh: Mesh::default(),
                 part_material: Vec::new(),
+                phase_centre: None,
             },
             static_owners: Vec::new(),
+            static_phase_centres: Vec::new(),
             meshes: Vec::new(),
             instances: Vec::new(),
             materials: self.materials,
@@ -309,6 +316,8 @@ pub struct Scene {
     pub static_world: SceneMesh,
     /// Which static-world triangles belong to which lane, boundary or object (sorted).
     pub static_owners: Vec<StaticOwner>,
+    /// Phase centres (scene frame) of the stationary objects whose asset has one, by object id.
+    pub static_phase_centres: Vec<(u64, DVec3)>,
     /// Meshes of the moving objects (object frame); instances refer to them by index.
     pub meshes: Vec<Arc<SceneMesh>>,
     /// Moving objects except the host.
@@ -884,6 +893,22 @@ impl Scene {
         self.instances.iter().find(|i| i.object_id == object_id)
     }
 
+    /// Phase centre (scene frame) of an object whose asset has a fixed one (see
+    /// [`super::assets::phase_centre`]): a moving object's at its current pose, else a stationary
+    /// object's.
+    pub fn phase_centre(&self, object_id: u64) -> Option<DVec3> {
+        match self.instance(object_id) {
+            Some(i) => self.meshes[i.mesh]
+                .phase_centre
+                .map(|p| i.pose_local.transform_point(p)),
+            None => self
+                .static_phase_centres
+                .iter()
+                .find(|(id, _)| *id == object_id)
+                .map(|(_, p)| *p),
+        }
+    }
+
     /// What static-world triangle `t` belongs to.
     pub fn static_element(&self, t: u32) -> Option<StaticElement> {
         self.static_owner(t).map(|o| o.element)
@@ -1004,6 +1029,7 @@ impl Scene {
             key: key.clone(),
             mesh,
             part_material,
+            phase_centre: phase_centre(asset, dims),
         });
         self.cache.insert(key, m.clone());
         Ok(m)
@@ -1145,6 +1171,7 @@ impl Scene {
         }
 
         // Stationary objects.
+        let mut phase_centres = Vec::new();
         for obj in &gt.stationary_object {
             let id = object_id(obj.id.as_ref());
             let what = format!("stationary object {id}");
@@ -1162,11 +1189,11 @@ impl Scene {
             let asset = self.object_asset(&what, reference, default_stationary_asset(obj))?;
             let dims = osi_dims(obj.base.as_ref().and_then(|b| b.dimension.as_ref()));
             let m = self.scene_mesh(&what, reference, &asset, dims)?;
-            w.place(
-                &m.mesh,
-                &stationary_object_pose(obj),
-                StaticElement::Object(id),
-            );
+            let pose = stationary_object_pose(obj);
+            w.place(&m.mesh, &pose, StaticElement::Object(id));
+            if let Some(p) = m.phase_centre {
+                phase_centres.push((id, pose.transform_point(p) - self.origin));
+            }
         }
 
         let part_material = resolve_parts(&mut self.materials, "static world", &w.mesh.parts)?;
@@ -1174,8 +1201,10 @@ impl Scene {
             key: "static world".into(),
             mesh: w.mesh,
             part_material,
+            phase_centre: None,
         };
         self.static_owners = w.owners;
+        self.static_phase_centres = phase_centres;
         self.static_signature = static_signature(gt, self.options.use_wet_materials && self.wet);
         self.static_revision += 1;
         Ok(())

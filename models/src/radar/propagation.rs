@@ -39,6 +39,10 @@
 //!   gets the image paths DG, GD (one leg via the road) and GG with the road's Fresnel coefficient
 //!   at the grazing angle; tubes that hit the road are not traced further (the road's own
 //!   backscatter at grazing incidence is not modelled), so the road enters only through the images.
+//!   The image is that of the centre's phase centre: for a mostly multiple-bounce centre of an
+//!   object whose asset has a fixed one, that point (a trihedral's apex,
+//!   [`crate::environment::assets::phase_centre`]); else the point at the centre's path range along
+//!   its hit-point centroid (the centroid itself for single reflections).
 //!
 //! Cost: one `closest_hit` per tube and interaction (≤ `max_bounces` + crossings), tubes in
 //! parallel (rayon, fixed output slots per tube, so the sums are deterministic), contributions
@@ -93,11 +97,13 @@ pub const RCS_AREA_SCALING: EffectInfo = EffectInfo {
 pub const GROUND_MULTIPATH: EffectInfo = EffectInfo {
     name: "radar.ground_multipath",
     default_on: true,
-    summary: "road multipath by the image method: paths DD, DG, GD, GG with the road Fresnel coefficient Γ(ψ) \
-              at the grazing angle, one-way F = 1 + Γ(R_d/R_g)e^{−jkΔR}, point-target power ∝ |F|⁴; off: direct \
-              paths only",
+    summary: "road multipath by the image method: paths DD, DG, GD, GG of each scattering centre's phase centre \
+              (its asset's where it has a fixed one and the return is multiple-bounce, e.g. a trihedral's apex; \
+              else the hit-point centroid, at the path range) with the road Fresnel coefficient Γ(ψ) at the \
+              grazing angle, one-way F = 1 + Γ(g_img/g_dir)(R_d/R_g)e^{−jkΔR}, point-target power ∝ |F|⁴; off: \
+              direct paths only",
     source: "Rappaport, Wireless Communications §4.6; Richards et al., Principles of Modern Radar ch. 4 \
-             (physics.md §1.3)",
+             (physics.md §1.3); phase centres: models/ASSETS.md",
 };
 
 /// `radar.multipath`: multi-bounce paths between different objects (ghosts).
@@ -306,6 +312,8 @@ struct Contribution {
     /// Velocity of the last hit point, m/s.
     velocity: DVec3,
     object_id: u64,
+    /// Reflections on the path (1: single bounce).
+    bounces: u32,
     /// Tube index × max bounces + slot: a total order within a key (deterministic sums).
     order: u64,
 }
@@ -322,6 +330,7 @@ impl Contribution {
         departure: DVec3::ZERO,
         velocity: DVec3::ZERO,
         object_id: 0,
+        bounces: 0,
         order: 0,
     };
 }
@@ -349,6 +358,9 @@ struct Centre {
     power_w: f64,
     /// The strongest centre of its object (kept first when paths are capped).
     leading: bool,
+    /// Mostly (by amplitude) multiple-bounce paths: the last hit points are not where the path's
+    /// phase is referenced (see [`Propagator::ground_images`]).
+    multi_bounce: bool,
 }
 
 /// Incidence-angle samples of the coefficient tables (0 … 90° in 0.25° steps).
@@ -883,6 +895,19 @@ impl Propagator {
     }
 }
 
+/// `closest_hit`, retried once with the ray moved 1 mm sideways when it hits nothing: a ray that
+/// runs (within rounding) along a shared triangle edge, e.g. straight down onto the seam of two
+/// road tiles below an object at y ≈ 0, can slip between the two triangles' f32 tests.
+fn closest_hit_sealed(space: &Space, ray: &Ray) -> Option<Hit> {
+    space.closest_hit(ray).or_else(|| {
+        let moved = Ray {
+            origin: ray.origin + perpendicular(ray.direction) * 1e-3,
+            ..*ray
+        };
+        space.closest_hit(&moved)
+    })
+}
+
 /// Tubes per rayon task.
 const TUBES_PER_TASK: usize = 64;
 
@@ -1046,6 +1071,7 @@ impl Propagator {
                         departure: tube.direction,
                         velocity: vel,
                         object_id: owner.object_id(),
+                        bounces: bounces + 1,
                         order: order + written as u64,
                     };
                     written += 1;
@@ -1098,11 +1124,15 @@ impl Propagator {
             let mut amp = Complex64::new(0.0, 0.0);
             let (mut w, mut pt, mut len, mut rate, mut dep, mut vel) =
                 (0.0, DVec3::ZERO, 0.0, 0.0, DVec3::ZERO, DVec3::ZERO);
+            let mut w_multi = 0.0;
             while j < cs.len() && cs[j].key == key {
                 let c = &cs[j];
                 let wt = c.amplitude.norm();
                 amp += c.amplitude;
                 w += wt;
+                if c.bounces > 1 {
+                    w_multi += wt;
+                }
                 pt += c.point * wt;
                 len += c.length_m * wt;
                 rate += c.length_rate_m_s * wt;
@@ -1150,6 +1180,7 @@ impl Propagator {
                     object_id: cs[i].object_id,
                     power_w: amplitude.norm_sqr(),
                     leading: false,
+                    multi_bounce: w_multi > 0.5 * w,
                 });
             }
             i = j;
@@ -1220,16 +1251,23 @@ impl Propagator {
         direct: &PathReturn,
         out: &mut Vec<PathReturn>,
     ) {
-        // The centre's phase centre: at its path range along the direction of its hit-point
-        // centroid (for a corner reflector the path range is that of the apex, not of the exit
-        // points), so the image geometry matches the phase of the direct path.
-        let p_c = ctx.origin + c.range_m * (c.point - ctx.origin).normalize_or_zero();
+        // The point the images are taken of: the centre's phase centre, where the direct path's
+        // phase is referenced. Default: the point at the path range along the direction of the
+        // hit-point centroid; for single reflections that is the centroid itself (the reflecting
+        // points are the reference). A multiple-bounce path is not referenced at its last hit
+        // points: where the object's asset has a fixed phase centre (a trihedral's apex: every
+        // triple-bounce path has the length of the path to the apex) that point is used.
+        let asset_centre = c
+            .multi_bounce
+            .then(|| ctx.scene.phase_centre(c.object_id))
+            .flatten();
+        let p_c = asset_centre
+            .unwrap_or_else(|| ctx.origin + c.range_m * (c.point - ctx.origin).normalize_or_zero());
         // Road below the centre.
-        let down = Ray::new(p_c + DVec3::Z * 1e-3, -DVec3::Z).with_t_max(50.0);
-        let mut probe = down;
+        let mut probe = Ray::new(p_c + DVec3::Z * 1e-3, -DVec3::Z).with_t_max(50.0);
         let mut road = None;
-        for _ in 0..4 {
-            let Some(h) = ctx.space.closest_hit(&probe) else {
+        for _ in 0..8 {
+            let Some(h) = closest_hit_sealed(ctx.space, &probe) else {
                 break;
             };
             if self.owner_of(ctx.scene, &h) == Owner::Road {
@@ -1257,9 +1295,8 @@ impl Propagator {
         let q = ctx.origin + to_image * (ht / (ht + h));
         let dq = q - ctx.origin;
         let lq = dq.length();
-        let Some(hq) = ctx
-            .space
-            .closest_hit(&Ray::new(ctx.origin, dq).with_t_max(lq + 0.05))
+        let Some(hq) =
+            closest_hit_sealed(ctx.space, &Ray::new(ctx.origin, dq).with_t_max(lq + 0.05))
         else {
             return;
         };

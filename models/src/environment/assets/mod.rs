@@ -1227,6 +1227,26 @@ pub fn build_asset_with(
     })
 }
 
+/// The phase centre (radar reference point) of an asset in its object frame, for the OSI dimension
+/// `dims` as in [`build_asset`]; `None` for assets without a fixed one. See "Phase centres and
+/// reference points" in `models/ASSETS.md`:
+/// * `trihedral`: the apex (inner corner): every triple-bounce path has the length of the path to the
+///   apex and back, so the apex is the phase centre of the reflector's return at any range;
+/// * `board`: the centre of the face, the phase centre of its specular return in the far field
+///   (R > 2D²/λ, D the face diagonal);
+/// * every other asset (vehicles, VRUs, roadside furniture, boxes, user meshes): `None`; their returns
+///   come from many aspect-dependent scattering centres, each of which is its own reference point.
+pub fn phase_centre(asset: &AssetRef, dims: Option<DVec3>) -> Option<DVec3> {
+    match asset.kind {
+        AssetKind::Trihedral => Some(targets::trihedral_apex(
+            asset,
+            dims.map(|_| asset.target_dimensions(dims)),
+        )),
+        AssetKind::Board => Some(targets::board_face_centre(asset, dims)),
+        _ => None,
+    }
+}
+
 /// The asset tables of `models/ASSETS.md` (Markdown), generated from the specs.
 pub fn catalogue_markdown() -> String {
     let mut s = String::new();
