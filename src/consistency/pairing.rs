@@ -191,10 +191,16 @@ impl Road {
 }
 
 /// The phase centre of an object's asset in its object frame (origin at the OSI box centre), m:
-/// where its radar returns and their ground images start (`models/ASSETS.md`).
+/// where its radar returns and their ground images start ("Phase centres and reference points" in
+/// `models/ASSETS.md`: a trihedral's apex, a board's face centre). Assets without one (vehicles,
+/// VRUs, furniture, user meshes, references that are not `osiris:` ones) use the box centre.
 fn phase_centre_in_box(reference: &str, dims: DVec3) -> DVec3 {
-    let _ = (reference, dims);
-    DVec3::ZERO
+    use osiris_models::environment::assets::{AssetRef, phase_centre};
+    let dims = (dims.x > 0.0 && dims.y > 0.0 && dims.z > 0.0).then_some(dims);
+    AssetRef::parse(reference)
+        .ok()
+        .and_then(|a| phase_centre(&a, dims))
+        .unwrap_or(DVec3::ZERO)
 }
 
 fn frame_geometry(campaign: &Campaign, view: &osi3::SensorView) -> Result<FrameGeom> {
