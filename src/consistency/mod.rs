@@ -51,8 +51,8 @@ pub const VAR_NAMES: [&str; NVARS] = [
     "mount_h",      // m, sensor height above the road below it
     "pc_h",         // m, the target's phase centre above the road below it (models/ASSETS.md)
     "wavelength",   // m, the sensor's carrier / laser wavelength (campaign [sensor])
-    "beam_az",      // deg, LiDAR: azimuth spacing of the simulated beams on the target (0 unknown)
-    "beam_el",      // deg, LiDAR: elevation spacing of the simulated beams on the target (0 unknown)
+    "beam_az",      // deg, LiDAR: azimuth spacing of the simulated scan's beams (0 unknown)
+    "beam_el",      // deg, LiDAR: elevation spacing of the simulated scan's beams (0 unknown)
 ];
 /// Number of explanatory variables.
 pub const NVARS: usize = 18;

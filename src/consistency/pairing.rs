@@ -723,21 +723,16 @@ fn lidar_frame(
                 }
         })
         .collect();
-    // The beam lattice on each target: the median spacing of the simulated points' distinct
-    // azimuths and elevations, deg (0 where fewer than two).
-    let s_lattice: Vec<(f64, f64)> = (0..nt)
-        .map(|i| {
-            let mut az = Vec::new();
-            let mut el = Vec::new();
-            for (d, _) in s.iter().zip(&s_t).filter(|(_, t)| **t == Some(i)) {
-                if let Some(p) = d.position.as_ref() {
-                    az.extend(p.azimuth);
-                    el.extend(p.elevation);
-                }
-            }
-            (median_spacing_deg(az), median_spacing_deg(el))
-        })
-        .collect();
+    // The scan's beam lattice: the median spacing of the simulated points' distinct azimuths and
+    // elevations over the frame, deg (0 where fewer than two).
+    let lattice = {
+        let (mut az, mut el) = (Vec::new(), Vec::new());
+        for p in s.iter().filter_map(|d| d.position.as_ref()) {
+            az.extend(p.azimuth);
+            el.extend(p.elevation);
+        }
+        (median_spacing_deg(az), median_spacing_deg(el))
+    };
     out.counts.meas_unassociated += m_gap;
     out.counts.sim_unassociated += s_gap;
     let mut frame_x = [0.0; NVARS];
@@ -773,8 +768,8 @@ fn lidar_frame(
         let (mc, sc) = (m_count[i] as f64, s_count[i] as f64);
         x[super::V_SIM] = (sc + 0.5).ln();
         x[super::V_PRX] = s_prx[i];
-        x[super::V_BEAM_AZ] = s_lattice[i].0;
-        x[super::V_BEAM_EL] = s_lattice[i].1;
+        x[super::V_BEAM_AZ] = lattice.0;
+        x[super::V_BEAM_EL] = lattice.1;
         out.rows.push(Row {
             quantity: quantity::POINTS_LOG_RATIO,
             frame,
