@@ -167,7 +167,6 @@ fn lidar(case: LidarCase, expect: Expect) {
 }
 
 #[test]
-#[ignore = "workflow defect: radar.ground_multipath is the one-way, Γ = −1, single-target-height form; the two-way |F|⁴ with Fresnel Γ_H over 3 reflector heights comes out UNEXPLAINED (multipath has the best ΔBIC but fails the CV and 20 % excess-χ² gates)"]
 fn radar_ground_multipath() {
     radar(
         RadarCase::GroundMultipath,
@@ -233,7 +232,6 @@ fn lidar_vertical_divergence() {
 }
 
 #[test]
-#[ignore = "workflow defect: the null LiDAR campaign comes out UNEXPLAINED: intensity_db χ²/dof ≈ 4.7 (board-edge footprint fractions move with the ±2 cm GT height error) and points_log_ratio χ²/dof ≈ 2.3 (ring counts at the board edges, threshold noise); GT uncertainty is not propagated into edge intensities or point counts"]
 fn lidar_null() {
     lidar(LidarCase::Null, Expect::Consistent);
 }
@@ -288,4 +286,78 @@ fn generator_physics_reference_values() {
     let db_km = |v: f64| 10.0 * std::f64::consts::E.log10() * fog_extinction_per_m(v) * 1000.0;
     assert!((db_km(50.0) - 340.0).abs() < 1.0);
     assert!((db_km(200.0) - 85.0).abs() < 0.5);
+}
+
+/// The closed loop on an independent ground-multipath campaign with the physical radar model
+/// (`osiris_models::build_sensor`, the FMU's code path): re-simulated with
+/// `--disable radar.ground_multipath` the workflow names `radar.ground_multipath` and its action is
+/// `--enable radar.ground_multipath`; re-simulated with it, the headline power RMS falls by ≥ 25 %.
+/// `OSIRIS_LOOP_GT=σ,h` sets the ground truth's jitter σ and height error bound h, m.
+#[test]
+fn closed_loop_ground_multipath_with_the_physical_radar_model() {
+    let tmp = tempfile::tempdir().unwrap();
+    let root = match std::env::var_os("OSIRIS_INDEPENDENT_KEEP") {
+        Some(k) => std::path::PathBuf::from(k).join("closed-loop-ground-multipath"),
+        None => tmp.path().to_path_buf(),
+    };
+    let (sigma, height_error) = std::env::var("OSIRIS_LOOP_GT")
+        .ok()
+        .and_then(|s| {
+            let v: Vec<f64> = s.split(',').filter_map(|x| x.parse().ok()).collect();
+            (v.len() == 2).then(|| (v[0], v[1]))
+        })
+        // The independent campaigns: 1 cm ground-truth jitter; heights off by ≤ 1 cm. With
+        // 2 cm (1.6 rad of two-way phase per cm at 10 m) the lobing cannot be reproduced
+        // station by station: the effect is still named, the error falls by ≈ 9 % only.
+        .unwrap_or((0.01, 0.01));
+    let w = independent_truth::radar_campaign_surveyed(
+        RadarCase::GroundMultipath,
+        seeds()[0],
+        &root.join("campaign"),
+        sigma,
+        height_error,
+    )
+    .unwrap();
+    let args = |out: &str, enable: &[&str], disable: &[&str]| ConsistencyArgs {
+        meta: w.meta.clone(),
+        out: root.join(out),
+        simulated: None,
+        model: None,
+        enable: enable.iter().map(|s| s.to_string()).collect(),
+        disable: disable.iter().map(|s| s.to_string()).collect(),
+        history: Some(root.join("history")),
+    };
+    let before = run_with(&args("without", &[], &["radar.ground_multipath"]), None).unwrap();
+    let o = Outcome::from(&before);
+    println!(
+        "without: {} accepted {:?} power RMS {:.2} dB",
+        before.status, o.accepted, before.error["power_db"]
+    );
+    assert!(o.names("radar.ground_multipath"), "{:?}", o.accepted);
+    let action = before
+        .actions
+        .iter()
+        .find(|a| a.effect == "radar.ground_multipath")
+        .expect("an action for the named effect");
+    let cmd = action.command.as_deref().unwrap();
+    assert!(
+        cmd.contains("--enable radar.ground_multipath")
+            && !cmd.contains("--disable radar.ground_multipath"),
+        "{cmd}"
+    );
+    let after = run_with(&args("with", &["radar.ground_multipath"], &[]), None).unwrap();
+    let (b, a) = (before.error["power_db"], after.error["power_db"]);
+    println!(
+        "with: {} accepted {:?} power RMS {a:.2} dB (was {b:.2}; predicted {:.2})",
+        after.status,
+        after.accepted(),
+        action.predicted_error["power_db"]
+    );
+    assert!(a <= 0.75 * b, "power RMS {b:.2} -> {a:.2} dB");
+    assert!(
+        !after
+            .accepted()
+            .contains(&"radar.ground_multipath".to_string())
+    );
+    assert_eq!(after.history.len(), 1, "the history shows the first run");
 }

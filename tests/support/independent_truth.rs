@@ -485,17 +485,27 @@ struct Trihedral {
     top_true: f64,
 }
 
-/// A trihedral's box: x extent a/√3 (plates behind the apex... the corner at the back), y extent
-/// √2·a, z from the road to the reflector top (post below, `mount=auto`). In its object frame the
-/// apex (inner corner, the phase centre) is at x = −a/(2√3) (the back of the box) and 2a/√6 below
-/// the top (one inner edge points up at 2/√6 of a; the other two point down at −1/√6).
-fn trihedral_dims(edge: f64, top: f64) -> DVec3 {
-    DVec3::new(edge / 3f64.sqrt(), 2f64.sqrt() * edge, top)
+/// A trihedral's box: its own bounding box (the posts are absorber-covered and not part of the
+/// logged object: `mount=none`): x extent a/√3 (the corner at the back), y extent √2·a, z extent
+/// 3a/√6 (one inner edge points up at 2a/√6 above the apex; the other two point down at −a/√6).
+/// In its object frame the apex (inner corner, the phase centre) is at x = −a/(2√3) (the back of
+/// the box) and a/(2√6) below the box centre, i.e. 2a/√6 below the top.
+fn trihedral_dims(edge: f64) -> DVec3 {
+    DVec3::new(
+        edge / 3f64.sqrt(),
+        2f64.sqrt() * edge,
+        3.0 * edge / 6f64.sqrt(),
+    )
 }
 
-fn apex_from_box(centre: DVec3, yaw: f64, edge: f64, top: f64) -> DVec3 {
+/// The box centre height of a trihedral whose top is at `top` above the road.
+fn trihedral_centre_z(edge: f64, top: f64) -> f64 {
+    top - 1.5 * edge / 6f64.sqrt()
+}
+
+fn apex_from_box(centre: DVec3, yaw: f64, edge: f64) -> DVec3 {
     let back = DVec3::new(yaw.cos(), yaw.sin(), 0.0) * (-edge / (2.0 * 3f64.sqrt()));
-    DVec3::new(centre.x, centre.y, 0.0) + back + DVec3::Z * (top - 2.0 * edge / 6f64.sqrt())
+    centre + back - DVec3::Z * (edge / (2.0 * 6f64.sqrt()))
 }
 
 /// A radar station: per target placed, (target index, horizontal range of the box centre, azimuth
@@ -520,13 +530,20 @@ fn radar_design(case: RadarCase, rng: &mut Rng) -> RadarDesign {
     let slot_cycle = |n: usize, k: usize, i: usize| -> usize { (i + k) % n };
     match case {
         RadarCase::GroundMultipath => {
-            // Three reflectors at apex heights 0.45 / 0.65 / 0.85 m, 10–60 m in 0.25 m steps,
-            // at azimuths −6° / 0° / +6° (rotated between stations).
-            let az = [-6.0, 0.0, 6.0];
+            // Three reflectors at apex heights 0.45 / 0.65 / 0.85 m, 10–60 m in 0.25 m steps, at
+            // azimuths −4° / 0° / +4° and 0 / 1 / 2 m further (slots rotated between stations):
+            // separated in range, so a radar that cannot resolve 4° in azimuth still sees each
+            // reflector on its own.
+            let az = [-4.0, 0.0, 4.0];
             for k in 0..=200usize {
                 let r = 10.0 + 0.25 * k as f64;
                 stations.push(RadarStation {
-                    placed: (0..3).map(|i| (i, r, az[slot_cycle(3, k, i)])).collect(),
+                    placed: (0..3)
+                        .map(|i| {
+                            let slot = slot_cycle(3, k, i);
+                            (i, r + slot as f64, az[slot])
+                        })
+                        .collect(),
                 });
             }
             RadarDesign {
@@ -635,8 +652,21 @@ fn radar_design(case: RadarCase, rng: &mut Rng) -> RadarDesign {
     }
 }
 
-/// Writes a radar campaign for `case` and `seed` into `dir`.
+/// Writes a radar campaign for `case` and `seed` into `dir` (ground truth: 2 cm position jitter
+/// per station, target heights off by up to ±2 cm).
 pub fn radar_campaign(case: RadarCase, seed: u64, dir: &Path) -> anyhow::Result<Written> {
+    radar_campaign_surveyed(case, seed, dir, 0.02, 0.02)
+}
+
+/// [`radar_campaign`] with the ground truth's per-station position jitter σ (m) and the bound of
+/// the targets' height errors (m) as given (a better survey).
+pub fn radar_campaign_surveyed(
+    case: RadarCase,
+    seed: u64,
+    dir: &Path,
+    pos_sigma: f64,
+    height_error: f64,
+) -> anyhow::Result<Written> {
     std::fs::create_dir_all(dir)?;
     let mut rng = Rng::new(seed.wrapping_mul(7919).wrapping_add(case as u64));
     let design = radar_design(case, &mut rng);
@@ -669,7 +699,6 @@ pub fn radar_campaign(case: RadarCase, seed: u64, dir: &Path) -> anyhow::Result<
     };
     // Nuisances.
     let cal_db = rng.range(-3.0, 3.0);
-    let pos_sigma = 0.02;
     let targets: Vec<Trihedral> = design
         .edges
         .iter()
@@ -681,7 +710,7 @@ pub fn radar_campaign(case: RadarCase, seed: u64, dir: &Path) -> anyhow::Result<
                 id: 100 + i as u64,
                 edge,
                 top_logged: top,
-                top_true: top + rng.range(-0.02, 0.02),
+                top_true: top + rng.range(-height_error, height_error),
             }
         })
         .collect();
@@ -709,19 +738,26 @@ pub fn radar_campaign(case: RadarCase, seed: u64, dir: &Path) -> anyhow::Result<
                 let az = az_deg.to_radians();
                 // Re-aimed at the sensor: +x of the object points back to the sensor.
                 let yaw = az + PI;
-                let c_true = DVec3::new(r * az.cos(), r * az.sin(), t.top_true / 2.0);
-                let apex_true = apex_from_box(c_true, yaw, t.edge, t.top_true);
+                let c_true = DVec3::new(
+                    r * az.cos(),
+                    r * az.sin(),
+                    trihedral_centre_z(t.edge, t.top_true),
+                );
+                let apex_true = apex_from_box(c_true, yaw, t.edge);
                 let jitter = DVec3::new(rng.normal(), rng.normal(), rng.normal()) * pos_sigma;
-                let c_log = DVec3::new(c_true.x, c_true.y, t.top_logged / 2.0) + jitter;
+                let c_log =
+                    DVec3::new(c_true.x, c_true.y, trihedral_centre_z(t.edge, t.top_logged))
+                        + jitter;
                 logged.push(LoggedBox {
                     id: t.id,
                     centre: c_log,
-                    dims: trihedral_dims(t.edge, t.top_logged),
+                    dims: trihedral_dims(t.edge),
                     yaw,
-                    model_reference: format!("osiris:trihedral?edge_m={}", t.edge),
+                    // Posts are absorber-covered (not part of the radar scene): `mount=none`.
+                    model_reference: format!("osiris:trihedral?edge_m={}&mount=none", t.edge),
                 });
                 // Model: from the logged box (apex at the back of the box, 2a/√6 below its top).
-                let apex_log = apex_from_box(c_log, yaw, t.edge, c_log.z + t.top_logged / 2.0);
+                let apex_log = apex_from_box(c_log, yaw, t.edge);
                 let rel = apex_log - sensor;
                 let snr_s = radar_snr_db(&model, sensor, apex_log, t.edge);
                 if snr_s >= DET_THRESHOLD_DB {
