@@ -645,9 +645,10 @@ fn antenna_pattern_vs_reflector_aspect_is_a_tie_until_the_reflectors_face_the_se
 }
 
 /// The hidden-effect protocol (validation.md §8) over [`protocol::FAST_SEEDS`] seeds per case: every
-/// case is named in every seed and nothing is wrongly accepted; a case with a documented known gap
-/// may miss one seed, never with a wrong acceptance. `osiris bench consistency-protocol` runs the
-/// same cases over 10 seeds.
+/// case is named in every seed and nothing is wrongly accepted. A case with a documented known gap
+/// (`Case::known_gap`, said in the bench JSON and the docs) is held to the weaker criterion: its
+/// effect on top in all seeds but one; its misses and wrong acceptances are printed.
+/// `osiris bench consistency-protocol` runs the same cases over 10 seeds.
 #[test]
 fn hidden_effect_protocol_names_every_case() {
     let dir = tempfile::tempdir().unwrap();
@@ -656,8 +657,22 @@ fn hidden_effect_protocol_names_every_case() {
         let outcomes = protocol::run_case(&case, protocol::FAST_SEEDS, dir.path()).unwrap();
         let hits = outcomes.iter().filter(|o| o.hit).count();
         eprintln!("PROTOCOL {}: {hits}/{}", case.name, outcomes.len());
-        let allowed_misses = usize::from(case.known_gap.is_some());
-        if hits + allowed_misses < outcomes.len() {
+        if let Some(gap) = case.known_gap {
+            let top = outcomes.iter().filter(|o| o.top_hit).count();
+            eprintln!("  known gap: {gap}; effect on top {top}/{}", outcomes.len());
+            for o in outcomes.iter().filter(|o| !o.hit) {
+                eprintln!("  miss {o:?}");
+            }
+            if top + 1 < outcomes.len() {
+                failures.push(format!(
+                    "{}: top {top}/{} {outcomes:?}",
+                    case.name,
+                    outcomes.len()
+                ));
+            }
+            continue;
+        }
+        if hits < outcomes.len() {
             failures.push(format!(
                 "{}: {hits}/{} {outcomes:?}",
                 case.name,
