@@ -1213,22 +1213,37 @@ pub fn attribute(
     // One effect, several quantities (joint signatures): the quantities are attributed in order;
     // an effect's entry on a later quantity shares the parameters of the same name with its entry
     // on an earlier one. Accepted there: those parameters are fixed at the fitted values here
-    // (fog's α from the intensities sets the points it drops); evaluated there and not accepted:
-    // the effect cannot be this quantity's cause either and is no candidate here.
+    // (fog's α from the intensities sets the points it drops). Not accepted there: the shared
+    // parameters that the earlier data pin down are fixed at their fit (α ≈ 0 from clean
+    // intensities: fog cannot drop points), the others stay free; and where one of its
+    // look-alikes (`confusable_with`) was accepted there in its place, all stay free (the later
+    // quantity is then the discriminating evidence: a clip level collapses the variance, a
+    // companding knee does not).
     let mut out: Vec<QuantityAttribution> = Vec::new();
     for q in super::attribution_quantities(campaign.sensor.kind) {
         let mut effects: Vec<Arc<dyn EffectSignature>> = Vec::new();
         for e in catalogue.effects.iter().filter(|e| e.quantity() == *q) {
+            // (accepted there, a look-alike of it accepted there instead, its result)
             let earlier = out.iter().find_map(|a| {
-                a.effects
-                    .iter()
-                    .find(|r| r.id == e.id())
-                    .map(|r| (a.accepted.contains(&r.id), r))
+                a.effects.iter().find(|r| r.id == e.id()).map(|r| {
+                    let alikes = |x: &dyn EffectSignature| x.confusable_with().to_vec();
+                    let mut alike = alikes(e.as_ref());
+                    if let Some(first) = catalogue.get_for(e.id(), &a.quantity) {
+                        alike.extend(alikes(first));
+                    }
+                    let look_alike = a.accepted.iter().any(|acc| alike.contains(acc));
+                    (a.accepted.contains(&r.id), look_alike, r)
+                })
             });
             match earlier {
                 None => effects.push(e.clone()),
-                Some((false, _)) => {}
-                Some((true, r)) => {
+                // A look-alike won the earlier quantity: this one may tell them apart.
+                Some((false, true, _)) => effects.push(e.clone()),
+                Some((accepted, _, r)) => {
+                    // Accepted there: every shared parameter at its fit. Not accepted: the
+                    // shared parameters the earlier data pin down (68 % interval within a fifth
+                    // of the bounds: fog's α ≈ 0 from clean intensities) at their fit, the others
+                    // free (a clip level that the means never reached).
                     let fixed: Vec<Option<f64>> = e
                         .params()
                         .iter()
@@ -1236,10 +1251,19 @@ pub fn attribute(
                             r.params
                                 .iter()
                                 .find(|f| f.name == p.name)
+                                .filter(|f| {
+                                    accepted
+                                        || f.ci68[1] - f.ci68[0]
+                                            <= 0.2 * (f.bounds[1] - f.bounds[0])
+                                })
                                 .map(|f| f.value.clamp(p.bounds[0], p.bounds[1]))
                         })
                         .collect();
-                    effects.push(Arc::new(Conditioned::new(e.clone(), fixed)));
+                    if fixed.iter().all(Option::is_none) {
+                        effects.push(e.clone());
+                    } else {
+                        effects.push(Arc::new(Conditioned::new(e.clone(), fixed)));
+                    }
                 }
             }
         }
