@@ -325,6 +325,7 @@ pub fn main_with(cli: Cli) -> Result<()> {
                             "default_on": e.default_on,
                             "summary": e.summary,
                             "source": e.source,
+                            "requires": e.requires,
                         })
                     })
                     .collect();
@@ -339,6 +340,9 @@ pub fn main_with(cli: Cli) -> Result<()> {
                         "",
                         e.source
                     );
+                    if let Some(p) = e.requires {
+                        outln!("{:<33}requires: {p}", "");
+                    }
                 }
             }
             Ok(())

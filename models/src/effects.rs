@@ -21,6 +21,10 @@ pub struct EffectInfo {
     pub summary: &'static str,
     /// Where the formula or coefficients come from.
     pub source: &'static str,
+    /// The effect this one refines (its stage's parent switch): it applies only while that one is
+    /// on too, e.g. `lidar.fog_extinction` requires `env.fog_extinction`. [`Effects::is_on`]
+    /// answers for the chain; no call site writes `env.* && sensor.*` itself.
+    pub requires: Option<&'static str>,
 }
 
 /// Errors of effect configuration.
@@ -74,9 +78,30 @@ impl Effects {
         }
     }
 
-    /// Whether an effect is on. Panics on a name that was never declared: that is a programming
+    /// Whether an effect applies: its own switch is on and so is every effect it requires
+    /// ([`EffectInfo::requires`], followed up the chain; a required effect this set does not
+    /// declare counts as on). Panics on a name that was never declared: that is a programming
     /// error in the model, not a user input.
     pub fn is_on(&self, info: &EffectInfo) -> bool {
+        let own = *self
+            .on
+            .get(info.name)
+            .unwrap_or_else(|| panic!("effect `{}` is not declared", info.name));
+        let mut parent = info.requires;
+        let mut hops = 0;
+        while own && let Some(name) = parent {
+            match (self.on.get(name), self.known.get(name)) {
+                (Some(false), _) => return false,
+                (_, Some(p)) if hops < 8 => parent = p.requires,
+                _ => break,
+            }
+            hops += 1;
+        }
+        own
+    }
+
+    /// The effect's own switch, whatever the effects it requires say.
+    pub fn switch(&self, info: &EffectInfo) -> bool {
         *self
             .on
             .get(info.name)
@@ -124,13 +149,40 @@ mod tests {
         default_on: true,
         summary: "a",
         source: "s",
+        requires: None,
     };
     const B: EffectInfo = EffectInfo {
         name: "env.b",
         default_on: false,
         summary: "b",
         source: "s",
+        requires: None,
     };
+
+    #[test]
+    fn required_effects_exist_and_gate_their_children() {
+        let all = catalogue();
+        let names: Vec<&str> = all.iter().map(|e| e.name).collect();
+        for e in &all {
+            if let Some(p) = e.requires {
+                assert!(names.contains(&p), "{} requires undeclared {p}", e.name);
+                assert_ne!(p, e.name);
+            }
+        }
+        let fog = all
+            .iter()
+            .find(|e| e.name == "lidar.fog_extinction")
+            .unwrap();
+        assert_eq!(fog.requires, Some("env.fog_extinction"));
+        let mut fx = Effects::new(&all);
+        assert!(fx.is_on(fog));
+        fx.set("env.fog_extinction", false).unwrap();
+        assert!(!fx.is_on(fog), "the parent switch turns the child off");
+        assert!(fx.switch(fog), "the child's own switch is untouched");
+        fx.set("env.fog_extinction", true).unwrap();
+        fx.set("lidar.fog_extinction", false).unwrap();
+        assert!(!fx.is_on(fog));
+    }
 
     #[test]
     fn catalogue_names_are_unique_and_documented() {

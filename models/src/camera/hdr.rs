@@ -31,6 +31,7 @@ pub const HDR_COMPANDING: EffectInfo = EffectInfo {
     default_on: true,
     summary: "PWL companding of the 20–24 bit merged RAW to 12–16 bit: y = y_k + (x − x_k)·Δy_k/Δx_k between knees (off: the linear RAW is passed on)",
     source: "PWL companding y = y_k + (x − x_k)/2^m_k (physics.md §3.3; Sony IMX490 24-bit → 12-bit output, knees register-specific)",
+    requires: None,
 };
 
 /// HDR effects (`camera.hdr_companding`).

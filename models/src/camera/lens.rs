@@ -75,6 +75,7 @@ pub const VIGNETTING: EffectInfo = EffectInfo {
     summary: "relative illumination E(θ)/E(0) = cos⁴θ × measured table (field angle or image height); \
               off: 1 (the camera equation E = πLT/4N² itself always applies)",
     source: "cos⁴ law: Aggarwal, Hua & Ahuja, ICCV 2001 (physics.md §3.2); table: lens data sheet",
+    requires: None,
 };
 
 /// Lens distortion.
@@ -85,6 +86,7 @@ pub const DISTORTION: EffectInfo = EffectInfo {
               Kannala–Brandt θ_d = θ(1+k1θ²+…+k4θ⁸); off: pinhole (equidistant fisheye)",
     source: "Brown, Photogramm. Eng. 32(3), 1966; OpenCV calib3d docs; Kannala & Brandt, IEEE TPAMI \
              28(8):1335, 2006 (physics.md §3.2)",
+    requires: None,
 };
 
 /// Point-spread function blur.
@@ -95,6 +97,7 @@ pub const PSF_BLUR: EffectInfo = EffectInfo {
               diffraction), energy conserving",
     source: "Gaussian fit to the Airy disc σ = 0.21 λ/NA: Zhang, Zerubia & Olivo-Marin, Appl. Opt. \
              46(10):1819, 2007",
+    requires: None,
 };
 
 /// Sun flare: veiling glare, halo and ghosts.
@@ -105,6 +108,7 @@ pub const FLARE: EffectInfo = EffectInfo {
               a halo (1+r²/a²)^(−3/2)/(2πa²) and aperture-shaped ghosts at c + ratio·(s − c)",
     source: "ghost geometry: Hullin, Eisemann, Seidel & Lee, ACM TOG 30(4), SIGGRAPH 2011; veiling \
              glare: ISO 9358; parametric approximation with guessed strengths",
+    requires: None,
 };
 
 /// Lens effects (`camera.vignetting`, `camera.distortion`, `camera.psf_blur`, `camera.flare`).

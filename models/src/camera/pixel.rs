@@ -45,6 +45,7 @@ pub const SHOT_NOISE: EffectInfo = EffectInfo {
     default_on: true,
     summary: "photon shot noise: n ~ Poisson(μ_e + μ_d) electrons (σ_e² = μ_e), normal approximation above 20 e⁻",
     source: "EMVA 1288 Release 4.0 (2021) linear model, σ_e² = μ_e (physics.md §3.1)",
+    requires: None,
 };
 
 /// Read (floor) noise of the readout chain.
@@ -53,6 +54,7 @@ pub const READ_NOISE: EffectInfo = EffectInfo {
     default_on: true,
     summary: "read noise: + σ_r·N(0,1) electrons per read (σ_d of EMVA 1288; σ_y² = K²(σ_d² + σ_e²) + 1/12)",
     source: "EMVA 1288 Release 4.0 (2021) (physics.md §3.1); IMX490 HCG 0.83 e⁻ / LCG 3.05 e⁻ (ISETCam sensorCreateIMX490.m, §3.3)",
+    requires: None,
 };
 
 /// Dark current with its temperature dependence and shot noise.
@@ -61,6 +63,7 @@ pub const DARK_CURRENT: EffectInfo = EffectInfo {
     default_on: true,
     summary: "dark signal: μ_d = I_ref·2^((T − T_ref)/T_2)·t_exp electrons, Poisson distributed with the photo-electrons",
     source: "EMVA 1288 Release 4.0 (2021) μ_d = μ_d,0 + μ_I·t_exp, doubling every ≈ 6–8 K (physics.md §3.1); IMX490 25.6 e⁻/s (ISETCam)",
+    requires: None,
 };
 
 /// Dark-signal non-uniformity: a fixed offset map.
@@ -69,6 +72,7 @@ pub const DSNU: EffectInfo = EffectInfo {
     default_on: true,
     summary: "DSNU: fixed per-pixel offset o_i ~ N(0, DSNU²) electrons, drawn once from the seed",
     source: "EMVA 1288 Release 4.0 (2021) DSNU = s_y,dark/K (physics.md §3.1)",
+    requires: None,
 };
 
 /// Photo-response non-uniformity: a fixed gain map.
@@ -77,6 +81,7 @@ pub const PRNU: EffectInfo = EffectInfo {
     default_on: true,
     summary: "PRNU: fixed per-pixel gain 1 + p_i, p_i ~ N(0, PRNU²), on the photo-electrons, drawn once from the seed",
     source: "EMVA 1288 Release 4.0 (2021) PRNU = √(s_y,50² − s_y,dark²)/(μ_y,50 − μ_y,dark) (physics.md §3.1)",
+    requires: None,
 };
 
 /// Full-well and ADC saturation.
@@ -85,6 +90,7 @@ pub const SATURATION: EffectInfo = EffectInfo {
     default_on: true,
     summary: "saturation: n ← min(n, full well), y ← min(y, 2^bits − 1) (off: linear beyond both)",
     source: "EMVA 1288 Release 4.0 (2021) saturation capacity (physics.md §3.1); IMX490 full wells 22 000 / 7 900 e⁻ (ISETCam, §3.3)",
+    requires: None,
 };
 
 /// Pixel effects (`camera.shot_noise`, `camera.read_noise`, `camera.dark_current`, `camera.dsnu`,

@@ -106,6 +106,7 @@ pub const ROLLING_SHUTTER: EffectInfo = EffectInfo {
               displaced by v_obj·t (first order); off: every row at the same time (global shutter)",
     source: "Liang, Chang, Chen, IEEE TIP 17(8):1323, 2008 (rolling-shutter distortion model); \
              Meingast, Geyer, Sastry, arXiv:cs/0503076, 2005",
+    requires: None,
 };
 
 /// Motion blur: the pixel integrates the radiance over its exposure window.
@@ -117,6 +118,7 @@ pub const MOTION_BLUR: EffectInfo = EffectInfo {
               during the exposure); off: one sample at mid-exposure",
     source: "Cook, Porter, Carpenter, SIGGRAPH 1984 (distributed ray tracing over time); Monte-Carlo \
              estimate of the exposure integral",
+    requires: None,
 };
 
 /// LED flicker: pixels that see a PWM-driven LED lamp directly are integrated by the pixel model.
@@ -128,6 +130,7 @@ pub const LED_FLICKER: EffectInfo = EffectInfo {
               on-fraction; off: the lens is added to the image at its time-averaged radiance",
     source: "IEEE P2020 Automotive Imaging white paper (2018), LED flicker mitigation; PWM on-fraction \
              over the exposure window",
+    requires: None,
 };
 
 /// Render effects (`camera.rolling_shutter`, `camera.motion_blur`, `camera.led_flicker`).

@@ -139,6 +139,7 @@ pub const WET_SURFACES: EffectInfo = EffectInfo {
     summary: "wet road: materials with a wet variant are replaced by it (water film: diffuse darkened to \
               ρ(1−F)(1−r̄)/(1−ρr̄), water specular lobe n ≈ 1.33, water layer at mm-wave); off: surfaces stay dry",
     source: "Lekner & Dorf, Appl. Opt. 27(7):1278, 1988; water n, k: Segelstein 1981; water ε: ITU-R P.840",
+    requires: None,
 };
 
 /// `space.mmwave_roughness`: the Ament roughness factor on the mm-wave reflection coefficient.
@@ -149,6 +150,7 @@ pub const MMWAVE_ROUGHNESS: EffectInfo = EffectInfo {
               surfaces",
     source: "Ament, Proc. IRE 41:142, 1953; Beckmann & Spizzichino, The Scattering of Electromagnetic Waves \
              from Rough Surfaces, 1963",
+    requires: None,
 };
 
 /// `space.fresnel_polarisation`: polarisation- and angle-dependent Fresnel coefficients.
@@ -158,6 +160,7 @@ pub const FRESNEL_POLARISATION: EffectInfo = EffectInfo {
     summary: "mm-wave reflection from the Fresnel/multilayer coefficients Γ_TE(θ), Γ_TM(θ); off: the \
               normal-incidence scalar Γ_TE(0) = (1 − √ε)/(1 + √ε) (stack value) for every angle and polarisation",
     source: "Fresnel equations; Orfanidis, Electromagnetic Waves and Antennas, ch. 6–7",
+    requires: None,
 };
 
 /// `env.retroreflection`: the retroreflective BRDF lobe (sheeting, road-marking beads).
@@ -167,6 +170,7 @@ pub const RETROREFLECTION: EffectInfo = EffectInfo {
     summary: "retroreflective lobe R = peak · exp(−γ²/σ²) (cos θi cos θo)^(m/2) around the source direction \
               (γ: angle between wi and wo); off: no retroreflection",
     source: "Gaussian retro lobe fitted to coefficients of retroreflection (ASTM D4956 R_A, EN 1436 R_L)",
+    requires: None,
 };
 
 /// All effects of the materials database.

@@ -24,6 +24,7 @@ pub const FOG_EXTINCTION: EffectInfo = EffectInfo {
     default_on: true,
     summary: "fog extinction: σ = (3.912/V)(λ/550 nm)^−q (Kim q(V)) optical; γ = K_l(f,T)·M(V) dB/km at mm-wave",
     source: "Kim et al., Proc. SPIE 4214:26 (2001); ITU-R P.1814; ITU-R P.840-7 (physics.md §2.4, §1.5)",
+    requires: None,
 };
 
 /// Rain extinction (P.1814 optical, P.838-3 mm-wave).
@@ -32,6 +33,7 @@ pub const RAIN_EXTINCTION: EffectInfo = EffectInfo {
     default_on: true,
     summary: "rain extinction: γ = 1.076·R^0.67 dB/km optical/NIR; γ = k·R^α dB/km (P.838-3, horizontal pol.) at mm-wave",
     source: "ITU-R P.1814 (coefficient UNVERIFIED); ITU-R P.838-3 (physics.md §2.5, §1.4)",
+    requires: None,
 };
 
 /// Clear-air gaseous absorption (O₂ + H₂O) at mm-wave.
@@ -40,6 +42,7 @@ pub const ATMOSPHERIC_ABSORPTION: EffectInfo = EffectInfo {
     default_on: true,
     summary: "gaseous absorption at 76–81 GHz: γ = γ_O2 + γ_H2O·(ρ/7.5 g/m³), 0.098 + 0.251 dB/km at 77 GHz (std. atm.)",
     source: "ITU-R P.676-12 line-by-line values (physics.md §1.5)",
+    requires: None,
 };
 
 /// Wet road: the road surface uses the wet material variants.
@@ -48,6 +51,7 @@ pub const WET_ROAD: EffectInfo = EffectInfo {
     default_on: true,
     summary: "wet road: road/marking materials switch to their wet variants (damp, wet, water film)",
     source: "materials database wet variants (Kerekes et al., Opt. Eng. 47(10):106201, 2008; physics.md §3.4)",
+    requires: None,
 };
 
 /// The effects declared by this module.

@@ -23,6 +23,7 @@ pub const VERTICAL_DIVERGENCE: EffectInfo = EffectInfo {
     summary: "elliptical Gaussian footprint D_V(R) = D₀ + Rβ_V in addition to D_H(R) = D₀ + Rβ_H; sub-rays are \
               offset vertically by up to β_V/2; off: β_V = 0 (sub-rays spread horizontally only)",
     source: "physics.md §2.6; Velodyne VLS-128 manual 63-9483 Rev A (3.0 × 1.5 mrad)",
+    requires: None,
 };
 
 /// `lidar.mixed_pixels`: the returns of all sub-rays of a pulse superpose in one waveform.
@@ -35,6 +36,7 @@ pub const MIXED_PIXELS: EffectInfo = EffectInfo {
               (object and part / static element) and each group is detected alone (no blending)",
     source: "Hebert & Krotkov, Image Vis. Comput. 10(3):170, 1992; Tuley et al., ICRA 2005; \
              Winiwarter et al., RSE 269:112772, 2022",
+    requires: None,
 };
 
 /// Effects declared by this module.

@@ -72,6 +72,7 @@ pub const DETECTOR_NOISE: EffectInfo = EffectInfo {
     summary: "APD/TIA noise: σ_i² = 2q(R₀P_s + R₀P_bg + I_d)M²F·B + i_n²B, F = kM + (1−k)(2 − 1/M); \
               peak Â = A + σ_P·N, P_d = Q((T − A)/σ_P); jitter σ_t = t_r/SNR; off: noiseless, P_d = [A > T]",
     source: "McIntyre, IEEE Trans. Electron Devices 13:164 (1966); Kilpelä, PhD thesis, Univ. Oulu (2004)",
+    requires: None,
 };
 
 /// Range walk: the range comes from the leading-edge threshold crossing, which moves with amplitude.
@@ -81,6 +82,7 @@ pub const RANGE_WALK: EffectInfo = EffectInfo {
     summary: "leading-edge timing walk: r_cross = R − σ_r·√(2 ln(A/T)) for a Gaussian pulse, corrected by the \
               sensor's walk calibration (measured amplitude or a constant reference); off: range from the peak",
     source: "Kilpelä, PhD thesis, Univ. Oulu (2004) §2.2; Gaussian closed form (physics.md §2.6)",
+    requires: None,
 };
 
 /// Detector saturation: the TIA/ADC output clips at `saturation_power_w`.
@@ -90,6 +92,7 @@ pub const DETECTOR_SATURATION: EffectInfo = EffectInfo {
     summary: "receiver saturation: measured amplitude min(Â, P_sat); a clipped echo reports the scale maximum \
               (Velodyne retro-reflector region 101–255) and its walk correction under-corrects (range short)",
     source: "Velodyne VLS-128 manual 63-9483 Rev A (reflectivity byte); Kilpelä, PhD thesis (2004) §2.2",
+    requires: None,
 };
 
 /// Dropped rays: a pulse yields no echo with a configured probability.
@@ -99,6 +102,7 @@ pub const DROPPED_RAYS: EffectInfo = EffectInfo {
     summary: "dropped rays: each pulse independently yields no echo with probability drop_probability \
               (Bernoulli; default 0)",
     source: "empirical point-dropout rates of automotive lidars (Manivasagam et al., LiDARsim, CVPR 2020)",
+    requires: None,
 };
 
 /// Effects declared by this module.

@@ -26,6 +26,7 @@ pub const SCAN_MOTION: EffectInfo = EffectInfo {
               (v_obj·t_k)·n / (d·n)); points are then expressed in the sensor frame of the measurement \
               time (ego motion compensated); off: the whole cycle is traced at the measurement time",
     source: "Velodyne VLS-128 manual 63-9483 Rev A (per-firing timing); rigid-body kinematics",
+    requires: None,
 };
 
 /// Effects declared by this module.

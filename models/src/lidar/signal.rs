@@ -33,6 +33,7 @@ pub const OVERLAP_FUNCTION: EffectInfo = EffectInfo {
     summary: "near-range overlap O(R) = A_overlap(r_t, r_r, d)/(πr_t²), r_t = r_t0 + Rθ_t/2, r_r = r_r0 + Rθ_r/2, \
               d = |d₀ + Rδ|, circle–circle intersection area; multiplies the received power; off: O = 1",
     source: "Halldórsson & Langerholc, Appl. Opt. 17(2):240, 1978; Stelmaszczyk et al., Appl. Opt. 44(7):1323, 2005",
+    requires: None,
 };
 
 /// `lidar.incidence_angle`: received power falls with the incidence angle.
@@ -42,6 +43,7 @@ pub const INCIDENCE_ANGLE: EffectInfo = EffectInfo {
     summary: "P_i ∝ f_r(wi, wo) cos θ with θ the angle between the beam and the surface normal (Lambertian: \
               ρ cos θ/π); off: cos θ = 1 and the BRDF at normal incidence",
     source: "Kashani et al., Sensors 15(11):28099, 2015 (extended-target LiDAR equation)",
+    requires: None,
 };
 
 /// `lidar.fog_extinction`: two-way fog extinction at the laser wavelength.
@@ -51,6 +53,7 @@ pub const FOG_EXTINCTION: EffectInfo = EffectInfo {
     summary: "T²_fog = exp(−2σ_fog R), σ_fog = (3.912/V)(λ/550 nm)^(−q(V)) (Kim q); off: T_fog = 1 (also off \
               when env.fog_extinction is off)",
     source: "Kim et al., Proc. SPIE 4214:26, 2001; ITU-R P.1814; physics.md §2.4",
+    requires: Some("env.fog_extinction"),
 };
 
 /// `lidar.rain_extinction`: two-way rain extinction at the laser wavelength.
@@ -60,6 +63,7 @@ pub const RAIN_EXTINCTION: EffectInfo = EffectInfo {
     summary: "T²_rain = exp(−2σ_rain R), σ_rain from γ = 1.076 R_rain^0.67 dB/km; off: T_rain = 1 (also off when \
               env.rain_extinction is off)",
     source: "ITU-R P.1814 (coefficient UNVERIFIED, physics.md §2.5)",
+    requires: Some("env.rain_extinction"),
 };
 
 /// `lidar.solar_background`: sunlight reflected by the target into the receiver.
@@ -71,6 +75,7 @@ pub const SOLAR_BACKGROUND: EffectInfo = EffectInfo {
               point is shadowed (ray towards the sun); sky background of pulses that hit nothing neglected; \
               off: P_bg = 0",
     source: "physics.md §2.2; Bird & Riordan SPCTRAL2 (SERI/TR-215-2436, 1984); ASTM G173-03",
+    requires: None,
 };
 
 /// Effects declared by this module.

@@ -19,6 +19,7 @@ pub const ANTENNA_PATTERN: EffectInfo = EffectInfo {
               in dBi; P_r ∝ G_t(DoD)·G_r(DoA); off: every direction gets the peak gain G₀ (isotropic shape)",
     source: "Balanis, Antenna Theory 4th ed. (2016) §2.5 (beamwidth, directivity), §2.11; Gaussian beam \
              approximation: Skolnik, Radar Handbook 3rd ed. ch. 13",
+    requires: None,
 };
 
 /// Effects declared by this module.

@@ -67,6 +67,7 @@ pub const RECEIVER_COMPRESSION: EffectInfo = EffectInfo {
               scale; off: linear receiver, unlimited ADC",
     source: "C. Rapp, \"Effects of HPA-nonlinearity on a 4-DPSK/OFDM-signal for a digital sound \
              broadcasting system\", 2nd European Conf. on Satellite Communications, 1991",
+    requires: None,
 };
 
 /// `radar.phase_noise`: oscillator phase noise with range correlation.
@@ -81,6 +82,7 @@ pub const PHASE_NOISE: EffectInfo = EffectInfo {
               skirts not modelled)",
     source: "M. C. Budge, M. P. Burt, \"Range correlation effects in radars\", IEEE National Radar \
              Conference 1993, pp. 212–216",
+    requires: None,
 };
 
 /// `radar.interference`: another FMCW radar's chirps crossing ours.
@@ -94,6 +96,7 @@ pub const INTERFERENCE: EffectInfo = EffectInfo {
     source: "M. Goppelt, H.-L. Blöcher, W. Menzel, \"Automotive radar – investigation of mutual \
              interference mechanisms\", Adv. Radio Sci. 8, 55–60 (2010); M. Toth et al., \
              \"Analytical investigation of non-coherent mutual FMCW radar interference\", EuRAD 2018",
+    requires: None,
 };
 
 /// Effects declared by this module.

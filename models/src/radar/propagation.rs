@@ -60,10 +60,7 @@ use super::antenna::{Antennas, FrontEndConfig, Polarisation};
 use crate::effects::{EffectInfo, Effects};
 use crate::environment::material::{MaterialEffects, Polarisation as PlanePol};
 use crate::environment::scene::{Scene, StaticElement};
-use crate::environment::weather::{
-    self, ATMOSPHERIC_ABSORPTION as ENV_GAS, FOG_EXTINCTION as ENV_FOG,
-    RAIN_EXTINCTION as ENV_RAIN, Weather,
-};
+use crate::environment::weather::{self, FOG_EXTINCTION as ENV_FOG, Weather};
 use crate::sensor::ModelError;
 use crate::space::{Hit, Ray, Space};
 use crate::world::WorldFrame;
@@ -80,6 +77,7 @@ pub const TWO_WAY_SPREADING: EffectInfo = EffectInfo {
               the spreading law in consistency studies",
     source: "Skolnik, Radar Handbook 3rd ed. ch. 1; Richards, Scheer & Holm, Principles of Modern Radar (2010) \
              ch. 2 (physics.md §1.1)",
+    requires: None,
 };
 
 /// `radar.rcs_area_scaling`: physical-optics scattering amplitude of extended surfaces.
@@ -91,6 +89,7 @@ pub const RCS_AREA_SCALING: EffectInfo = EffectInfo {
               `propagation.point_rcs_dbsm` at its contribution-weighted centroid",
     source: "Ling, Chou & Lee, IEEE TAP 37(2):194, 1989 (SBR); Knott, Shaeffer & Tuley, Radar Cross Section \
              2nd ed. (2004) (physics.md §1.2)",
+    requires: None,
 };
 
 /// `radar.ground_multipath`: the road's image paths (two-ray model).
@@ -104,6 +103,7 @@ pub const GROUND_MULTIPATH: EffectInfo = EffectInfo {
               direct paths only",
     source: "Rappaport, Wireless Communications §4.6; Richards et al., Principles of Modern Radar ch. 4 \
              (physics.md §1.3); phase centres: models/ASSETS.md",
+    requires: None,
 };
 
 /// `radar.multipath`: multi-bounce paths between different objects (ghosts).
@@ -115,6 +115,7 @@ pub const MULTIPATH: EffectInfo = EffectInfo {
               tube stops when it would leave the object it hit first (intra-object bounces, e.g. a corner \
               reflector's, stay part of that object's RCS)",
     source: "Ling, Chou & Lee, IEEE TAP 37(2):194, 1989; geometric optics image method",
+    requires: None,
 };
 
 /// `radar.rain_attenuation`: two-way P.838-3 rain attenuation.
@@ -125,6 +126,7 @@ pub const RAIN_ATTENUATION: EffectInfo = EffectInfo {
               radar's H or V polarisation) and L the total (two-way) path length; also needs \
               `env.rain_extinction`",
     source: "ITU-R P.838-3 (physics.md §1.4)",
+    requires: Some("env.rain_extinction"),
 };
 
 /// `radar.atmospheric_absorption`: two-way gaseous absorption.
@@ -134,6 +136,7 @@ pub const ATMOSPHERIC_ABSORPTION: EffectInfo = EffectInfo {
     summary: "O₂ + H₂O absorption over the two-way path, 10^(−γ_gas·L/10), γ ≈ 0.35 dB/km at 77 GHz; also \
               needs `env.atmospheric_absorption`",
     source: "ITU-R P.676-12 (physics.md §1.5)",
+    requires: Some("env.atmospheric_absorption"),
 };
 
 /// `radar.micro_doppler`: wheel rotation.
@@ -144,6 +147,7 @@ pub const MICRO_DOPPLER: EffectInfo = EffectInfo {
               ω_w = v_forward / r_wheel about the axle (0 at the contact patch, 2v at the top), spreading the \
               Doppler of the wheels; off: rigid-body velocity",
     source: "V. C. Chen, The Micro-Doppler Effect in Radar (Artech House, 2011) ch. 2",
+    requires: None,
 };
 
 /// Effects declared by this module.
@@ -533,8 +537,8 @@ impl Propagator {
                 area_scaling: effects.is_on(&RCS_AREA_SCALING),
                 ground: effects.is_on(&GROUND_MULTIPATH),
                 multipath: effects.is_on(&MULTIPATH),
-                rain: effects.is_on(&RAIN_ATTENUATION) && effects.is_on(&ENV_RAIN),
-                gas: effects.is_on(&ATMOSPHERIC_ABSORPTION) && effects.is_on(&ENV_GAS),
+                rain: effects.is_on(&RAIN_ATTENUATION),
+                gas: effects.is_on(&ATMOSPHERIC_ABSORPTION),
                 fog: effects.is_on(&ENV_FOG),
                 micro_doppler: effects.is_on(&MICRO_DOPPLER),
                 material: MaterialEffects::from_effects(effects),

@@ -90,6 +90,7 @@ pub const MULTIPATH: EffectInfo = EffectInfo {
     summary: "multi-bounce propagation paths: specular reflection r = d − 2(d·n)n at every surface up to \
               the policy's bounce count; off: only the first surface is found",
     source: "geometric optics; image method for plane mirrors",
+    requires: None,
 };
 
 /// `space.diffuse_bounces`: bounces may be sampled diffusely (cosine-weighted hemisphere).
@@ -99,6 +100,7 @@ pub const DIFFUSE_BOUNCES: EffectInfo = EffectInfo {
     summary: "sampled diffuse bounces: with the policy's probability a bounce leaves in a cosine-weighted \
               direction p(ω) = cos θ / π instead of the mirror direction; off: all bounces specular",
     source: "Pharr, Jakob, Humphreys: PBRT 4th ed. §13.6 (Malley's method)",
+    requires: Some("space.multipath"),
 };
 
 /// `space.transmission`: transmissive surfaces (glass) pass rays on, weighted by their transmittance.
@@ -108,6 +110,7 @@ pub const TRANSMISSION: EffectInfo = EffectInfo {
     summary: "transmission through transmissive surfaces: the ray continues, T = Π τ_i over the crossed \
               surfaces (τ from the materials database); off: every surface is opaque",
     source: "Beer–Lambert / Fresnel transmittance per surface from the materials database",
+    requires: None,
 };
 
 /// All effects of the space-design layer.
