@@ -242,6 +242,21 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
     }
 }
 
+/// `osiris bench consistency-protocol`: needs the truth generators (feature `protocol`).
+#[cfg(feature = "protocol")]
+fn consistency_protocol() -> Result<serde_json::Value> {
+    crate::consistency::protocol::bench_protocol(crate::consistency::protocol::PROTOCOL_SEEDS)
+}
+
+/// `osiris bench consistency-protocol` in a build without the truth generators.
+#[cfg(not(feature = "protocol"))]
+fn consistency_protocol() -> Result<serde_json::Value> {
+    bail!(
+        "`bench consistency-protocol` needs the truth generators, which this build leaves out: \
+         cargo run --release --features protocol -- bench consistency-protocol"
+    )
+}
+
 pub fn main_with(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Run(args) => run(args),
@@ -292,9 +307,7 @@ pub fn main_with(cli: Cli) -> Result<()> {
                     frames.unwrap_or(5).max(1),
                 ),
                 BenchWhat::Consistency => crate::consistency::bench::bench_consistency(max_threads),
-                BenchWhat::ConsistencyProtocol => crate::consistency::protocol::bench_protocol(
-                    crate::consistency::protocol::PROTOCOL_SEEDS,
-                )?,
+                BenchWhat::ConsistencyProtocol => consistency_protocol()?,
             };
             outln!("{}", serde_json::to_string(&figures)?);
             Ok(())

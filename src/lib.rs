@@ -10,9 +10,12 @@
 
 pub mod bench;
 pub mod cli;
-pub mod consistency;
 pub mod export;
 pub mod master;
 pub mod package;
 pub mod scenario;
-pub mod trace;
+
+/// The consistency workflow (the `osiris-consistency` crate).
+pub use osiris_consistency as consistency;
+/// OSI `.osi` trace files (`osiris_proto::trace`).
+pub use osiris_proto::trace;

@@ -4,6 +4,7 @@
 //!   field numbers; checked against the official `osi-python` descriptors in CI).
 //! * [`perception`]: the osiris extension carrying each sensor's raw perception output
 //!   (`osiris.perception.PerceptionData`).
+//! * [`trace`]: OSI `.osi` trace files (length-prefixed messages), read and written.
 //!
 //! Files: `proto/osi3/*.proto`, `proto/osiris/perception.proto`.
 
@@ -20,6 +21,8 @@ pub mod osiris {
     }
 }
 pub use osiris::perception;
+
+pub mod trace;
 
 pub use prost::Message;
 

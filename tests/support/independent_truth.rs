@@ -2,7 +2,7 @@
 //!
 //! Written from the closed forms of `shared/reference/physics.md` (radar §1, LiDAR §2) and the
 //! hidden-effect protocol of `shared/reference/validation.md` §8, without looking at the workflow's
-//! own generator (`src/consistency/truth*.rs`) or at the effect catalogue's signatures: it shares
+//! own generator (`consistency/src/truth*.rs`) or at the effect catalogue's signatures: it shares
 //! no physics code with the model or the catalogue, only the OSI messages and the trace writer.
 //!
 //! Each campaign is a folder with

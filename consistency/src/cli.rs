@@ -50,7 +50,7 @@ pub type Simulator<'a> = dyn FnMut(&SensorConfig, &[osi3::SensorView]) -> Result
 
 /// The verdict "the model is inconsistent with the measurement": a tolerance fails and the status
 /// is not EXPLAINED. `osiris consistency` exits with 1 on it (the outputs are written), and with
-/// 2 on a usage or input error ([`crate::cli::exit_code`]).
+/// 2 on a usage or input error (`osiris::cli::exit_code`).
 #[derive(Debug, Clone, thiserror::Error)]
 #[error("consistency: status {status} with failing metrics: {} (see {report})", failing.join(", "))]
 pub struct VerdictFailed {
@@ -186,7 +186,7 @@ pub fn run_with_catalogue(
                 Err(SimulateError::Other(e)) => return Err(e.context("re-simulation failed")),
             };
             let path = args.out.join("simulated_sensor_data.osi");
-            let mut w = crate::trace::OsiTraceWriter::create(&path)?;
+            let mut w = osiris_proto::trace::OsiTraceWriter::create(&path)?;
             for sd in &sim {
                 w.write_message(sd)?;
             }

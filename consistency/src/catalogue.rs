@@ -1,5 +1,5 @@
 //! Effect catalogues (validation.md §4): one versioned TOML per sensor
-//! (`models/resources/consistency/{radar,lidar}.toml`), each entry a residual signature with 0–2
+//! (`consistency/catalogue/{radar,lidar,camera}.toml`), each entry a residual signature with 0–2
 //! bounded parameters, its explanatory variables, its [`EffectKind`] (an osiris model effect of the
 //! same name, physics the model lacks, or a property of the measurement), the effects it can be
 //! confused with and the experiment that separates them.
@@ -27,11 +27,11 @@ use super::campaign::{CampaignSensor, TVal, parse_toml};
 use super::expr::{Expr, Program};
 
 /// The built-in radar catalogue.
-pub const RADAR_TOML: &str = include_str!("../../models/resources/consistency/radar.toml");
+pub const RADAR_TOML: &str = include_str!("../catalogue/radar.toml");
 /// The built-in LiDAR catalogue.
-pub const LIDAR_TOML: &str = include_str!("../../models/resources/consistency/lidar.toml");
+pub const LIDAR_TOML: &str = include_str!("../catalogue/lidar.toml");
 /// The built-in camera catalogue (ROI mean and variance; variable mapping in `camera.rs`).
-pub const CAMERA_TOML: &str = include_str!("../../models/resources/consistency/camera.toml");
+pub const CAMERA_TOML: &str = include_str!("../catalogue/camera.toml");
 
 /// Most parameters an effect may have (validation.md §4: 0–2 bounded parameters keep the
 /// forward selection identifiable and fast).

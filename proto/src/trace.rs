@@ -467,14 +467,14 @@ pub fn parse_trace_file_name(path: &Path) -> Option<(String, String, u64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use osiris_proto::osi3;
+    use crate::osi3;
     use std::time::Duration;
 
     fn sv(i: u64) -> osi3::SensorView {
         osi3::SensorView {
-            version: Some(osiris_proto::interface_version()),
-            timestamp: Some(osiris_proto::timestamp_from_seconds(i as f64 * 0.05)),
-            sensor_id: Some(osiris_proto::id(i)),
+            version: Some(crate::interface_version()),
+            timestamp: Some(crate::timestamp_from_seconds(i as f64 * 0.05)),
+            sensor_id: Some(crate::id(i)),
             ..Default::default()
         }
     }

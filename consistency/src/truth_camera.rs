@@ -23,7 +23,7 @@ use osiris_proto::{id, osi3};
 
 use super::camera::{RawFrame, write_raw_png};
 use super::metrics::SplitMix;
-use crate::trace::OsiTraceWriter;
+use osiris_proto::trace::OsiTraceWriter;
 
 /// Hidden effects of the camera truth.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -1,20 +1,22 @@
-//! The consistency workflow (GitHub issue 7): compare a sensor model with measurements, show where
-//! it fails, name the missing physical effect, add it and watch the error fall.
+//! The consistency workflow: compare a sensor model with measurements, show where it fails, name
+//! the missing physical effect, add it and watch the error fall (`docs/consistency.md`; method after
+//! the DIVP FY2019 consistency verification and Sensors 25(24):7642).
 //!
-//! Method: `shared/reference/validation.md` (DIVP FY2019 consistency verification; Sensors 25(24):7642).
+//! One pipeline, each stage a module that only calls the ones after it:
+//! [`cli`] (arguments, the run) → [`campaign`] (the `consistency.toml` contract) → [`simulate`]
+//! (re-simulation through `osiris_models::build_sensor`, the FMU's code path) → [`pairing`]
+//! (timestamp pairing, association, residual rows with their explanatory variables; [`camera`] for
+//! camera RAW campaigns) → [`metrics`] (residual statistics with tolerances, binned metrics,
+//! AVM/DVM/W1) → [`attribution`] (noise model, nuisance baseline, tie check, forward selection over
+//! the [`catalogue`] with four gates, joint signatures across quantities) → [`report`]
+//! (`summary.json`, `report.html`) and [`history`] (`--history`).
 //!
-//! * [`campaign`]: the `consistency.toml` contract (schema `osiris.consistency/1`).
-//! * [`pairing`]: trace loading, timestamp pairing, association (object id, gating fallback, LiDAR
-//!   beam id), paired residual rows with their explanatory variables, aggregation per station.
-//! * [`metrics`]: residual statistics with tolerances and bootstrap CIs, binned metrics, AVM/DVM/W1.
-//! * [`catalogue`] + `models/resources/consistency/{radar,lidar}.toml`: effect signatures.
-//! * [`attribution`]: noise model, nuisance baseline, tie check, forward selection, four gates, status.
-//! * [`simulate`]: re-simulation through `osiris_models::build_sensor` (the FMU's code path).
-//! * [`report`]: `summary.json` and the self-contained `report.html`.
-//! * [`history`]: the run registry behind `--history`.
-//! * [`protocol`]: the hidden-effect protocol (hit rates per case; `osiris bench consistency-protocol`).
-//! * [`truth`]: the independent truth generator used by the tests (closed-form physics, hidden effects).
-//! * [`cli`]: `osiris consistency`.
+//! * [`catalogue`] + `consistency/catalogue/{radar,lidar,camera}.toml`: effect signatures; a
+//!   catalogue is passed to the workflow as a value ([`cli::run_with_catalogue`]).
+//! * [`expr`]: the signature expressions; [`bench`]: `osiris bench consistency`.
+//! * With the `truth` feature (dev-only: tests, examples, `osiris bench consistency-protocol`):
+//!   `truth` and `truth_camera`, the first truth generators (closed-form physics, hidden effects),
+//!   and `protocol`, the hidden-effect protocol.
 
 pub mod attribution;
 pub mod bench;
@@ -26,10 +28,13 @@ pub mod expr;
 pub mod history;
 pub mod metrics;
 pub mod pairing;
+#[cfg(feature = "truth")]
 pub mod protocol;
 pub mod report;
 pub mod simulate;
+#[cfg(feature = "truth")]
 pub mod truth;
+#[cfg(feature = "truth")]
 pub mod truth_camera;
 
 /// Names of the explanatory variables of a residual row (index = position in [`Row::x`]); the

@@ -19,7 +19,7 @@ use anyhow::Result;
 use osiris_proto::{id, osi3};
 
 use super::metrics::SplitMix;
-use crate::trace::OsiTraceWriter;
+use osiris_proto::trace::OsiTraceWriter;
 
 /// Speed of light, m/s (exact, SI).
 const C_M_S: f64 = 299_792_458.0;

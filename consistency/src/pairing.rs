@@ -67,7 +67,7 @@ pub struct Paired {
 
 /// Reads a whole `.osi` trace of `M`.
 pub fn read_trace<M: prost::Message + Default>(path: &Path, what: &str) -> Result<Vec<M>> {
-    crate::trace::read_messages::<M>(path)
+    osiris_proto::trace::read_messages::<M>(path)
         .with_context(|| format!("cannot read the {what} trace `{}`", path.display()))
 }
 
