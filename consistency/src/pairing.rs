@@ -162,15 +162,7 @@ impl Road {
         if !points.is_empty() {
             return Road::Lanes(points);
         }
-        Road::Plane(host.map_or(0.0, |h| {
-            let height = h
-                .base
-                .as_ref()
-                .and_then(|b| b.dimension.as_ref())
-                .and_then(|d| d.height)
-                .unwrap_or(0.0);
-            moving_object_pose(h).position.z - 0.5 * height
-        }))
+        Road::Plane(osiris_models::environment::scene::fallback_plane_z(host))
     }
 
     /// The road's height (global z) below a point: the nearest lane boundary point's z in the

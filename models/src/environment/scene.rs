@@ -392,6 +392,20 @@ fn host_object(gt: &osi3::GroundTruth, host: Option<u64>) -> Option<&osi3::Movin
         .find(|o| object_id(o.id.as_ref()) == h)
 }
 
+/// Height (global z) of the fallback road plane of a ground truth without lane strips: the host's
+/// wheel-contact height (its box centre less half its height), z = 0 without a host.
+pub fn fallback_plane_z(host: Option<&osi3::MovingObject>) -> f64 {
+    host.map_or(0.0, |h| {
+        let height = h
+            .base
+            .as_ref()
+            .and_then(|b| b.dimension.as_ref())
+            .and_then(|d| d.height)
+            .unwrap_or(0.0);
+        moving_object_pose(h).position.z - 0.5 * height
+    })
+}
+
 fn initial_origin(gt: &osi3::GroundTruth, host: Option<u64>) -> DVec3 {
     if let Some(h) = host_object(gt, host) {
         return moving_object_pose(h).position;
@@ -1087,16 +1101,7 @@ impl Scene {
             w.own(first, StaticElement::Lane(object_id(lane.id.as_ref())));
         }
         if w.mesh.triangles.is_empty() {
-            let z = host_object(gt, self.host_id).map_or(0.0, |h| {
-                let pose = moving_object_pose(h);
-                let height = h
-                    .base
-                    .as_ref()
-                    .and_then(|b| b.dimension.as_ref())
-                    .and_then(|d| d.height)
-                    .unwrap_or(0.0);
-                pose.position.z - 0.5 * height
-            });
+            let z = fallback_plane_z(host_object(gt, self.host_id));
             let half = self.options.fallback_plane_half_size_m;
             let n = (2.0 * half / 50.0).ceil().max(1.0) as usize;
             let step = 2.0 * half / n as f64;
