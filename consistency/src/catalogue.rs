@@ -663,6 +663,43 @@ mod tests {
     }
 
     #[test]
+    fn ground_multipath_signature_is_the_two_way_two_ray_factor() {
+        // Independent: the phasor sum of the direct and the road-image paths between a sensor at
+        // height hs and a point at height ht, horizontal distance d, with Γ = −ρ and a Gaussian
+        // elevation beam (one-way voltage gain exp(−2 ln2 θ²/θ₃²)), squared twice (both ways).
+        let c = Catalogue::builtin(CampaignSensor::Radar).unwrap();
+        let e = c.get("radar.ground_multipath").unwrap();
+        let lambda = 299_792_458.0 / 77e9;
+        let (hs, rho, bw) = (0.5, 0.6, 12.0);
+        for (d, ht) in [(10.0, 0.45), (23.7, 0.85), (61.2, 0.65), (7.3, 1.1)] {
+            let direct = f64::hypot(d, ht - hs);
+            let image = f64::hypot(d, ht + hs);
+            let gain = |theta_deg: f64| (-2.0 * 2f64.ln() * (theta_deg / bw).powi(2)).exp();
+            let th_dir = ((ht - hs) / d).atan().to_degrees();
+            let th_img = (-(ht + hs) / d).atan().to_degrees();
+            let a = rho * gain(th_img) / gain(th_dir);
+            let phase = 2.0 * std::f64::consts::PI * (image - direct) / lambda;
+            // F = 1 − a·e^{−jφ}
+            let (re, im) = (1.0 - a * phase.cos(), a * phase.sin());
+            let want_db = 40.0 * (re * re + im * im).sqrt().log10();
+            let mut x = [0.0; super::super::NVARS];
+            x[super::super::V_RANGE] = direct;
+            x[super::super::V_MOUNT_H] = hs;
+            x[super::super::V_PC_H] = ht;
+            x[super::super::V_WAVELENGTH] = lambda;
+            let (dr, el_dir, el_img) = super::super::two_ray_geometry(direct, hs, ht);
+            x[super::super::V_GROUND_DR] = dr;
+            x[super::super::V_ELEV_DIR] = el_dir;
+            x[super::super::V_ELEV_IMG] = el_img;
+            let got = e.eval(&x, &[rho, bw]);
+            assert!(
+                (got - want_db).abs() < 1e-6,
+                "d {d} ht {ht}: {got} vs {want_db}"
+            );
+        }
+    }
+
+    #[test]
     fn two_way_spreading_signature() {
         // DIVP model bug: R⁻² instead of R⁻⁴ is −20 dB per decade with p0 = 2.
         let c = Catalogue::builtin(CampaignSensor::Radar).unwrap();

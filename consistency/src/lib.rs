@@ -58,9 +58,12 @@ pub const VAR_NAMES: [&str; NVARS] = [
     "wavelength",   // m, the sensor's carrier / laser wavelength (campaign [sensor])
     "beam_az",      // deg, LiDAR: azimuth spacing of the simulated scan's beams (0 unknown)
     "beam_el",      // deg, LiDAR: elevation spacing of the simulated scan's beams (0 unknown)
+    "ground_dr", // m, two-ray path difference via the road, √(r_h² + (h_t+h_s)²) − √(r_h² + (h_t−h_s)²)
+    "elev_dir",  // deg, elevation of the direct path to the phase centre, atan((h_t − h_s)/r_h)
+    "elev_img",  // deg, elevation of the road image, atan(−(h_t + h_s)/r_h)
 ];
 /// Number of explanatory variables.
-pub const NVARS: usize = 18;
+pub const NVARS: usize = 21;
 /// Index of `prx`.
 pub const V_PRX: usize = 12;
 /// Index of `range` in [`VAR_NAMES`].
@@ -83,6 +86,28 @@ pub const V_WAVELENGTH: usize = 15;
 pub const V_BEAM_AZ: usize = 16;
 /// Index of `beam_el`.
 pub const V_BEAM_EL: usize = 17;
+/// Index of `ground_dr`.
+pub const V_GROUND_DR: usize = 18;
+/// Index of `elev_dir`.
+pub const V_ELEV_DIR: usize = 19;
+/// Index of `elev_img`.
+pub const V_ELEV_IMG: usize = 20;
+
+/// The two-ray geometry over the road of a target whose phase centre is `pc_h` above the road at
+/// slant range `range_m` from a sensor `mount_h` above it: (path difference via the road's image,
+/// m; elevation of the direct path, deg; elevation of the image, deg), with the horizontal distance
+/// r_h = √(R² − (h_t − h_s)²) (Skolnik, Introduction to Radar Systems, §2.11).
+pub fn two_ray_geometry(range_m: f64, mount_h: f64, pc_h: f64) -> (f64, f64, f64) {
+    let rh = (range_m * range_m - (pc_h - mount_h).powi(2))
+        .max(0.01)
+        .sqrt();
+    let dr = rh.hypot(pc_h + mount_h) - rh.hypot(pc_h - mount_h);
+    (
+        dr,
+        ((pc_h - mount_h) / rh).atan().to_degrees(),
+        (-(pc_h + mount_h) / rh).atan().to_degrees(),
+    )
+}
 
 /// Residual quantities (natural units in the id).
 pub mod quantity {

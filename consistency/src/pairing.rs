@@ -302,6 +302,8 @@ fn station_key(target: u64, a: f64, b: f64) -> u64 {
 }
 
 fn vars(campaign: &Campaign, geom: &FrameGeom, g: &TargetGeometry) -> [f64; NVARS] {
+    let (dr, el_dir, el_img) =
+        super::two_ray_geometry(g.range_m, geom.sensor_height_m, g.phase_centre_height_m);
     let t = campaign.target(g.id);
     let area = t.and_then(|t| t.area_m2()).unwrap_or(g.dims.y * g.dims.z);
     let fog = campaign.environment.fog_visibility_m;
@@ -324,6 +326,9 @@ fn vars(campaign: &Campaign, geom: &FrameGeom, g: &TargetGeometry) -> [f64; NVAR
         campaign.sensor.wavelength_m(),
         0.0,
         0.0,
+        dr,
+        el_dir,
+        el_img,
     ]
 }
 
