@@ -183,7 +183,7 @@ fn stratified_variable(e: &dyn EffectSignature) -> Option<usize> {
         .iter()
         .filter_map(|v| super::VAR_NAMES.iter().position(|n| n == v))
         .collect();
-    let target_level = idx.iter().any(|i| super::cli::TARGET_VARS.contains(i));
+    let target_level = idx.iter().any(|i| super::TARGET_VARS.contains(i));
     (!target_level).then(|| idx.first().copied()).flatten()
 }
 
@@ -197,7 +197,7 @@ fn target_folds_identify(obs: &[Obs]) -> bool {
     if targets.len() < 3 {
         return false;
     }
-    super::cli::TARGET_VARS.iter().all(|&v| {
+    super::TARGET_VARS.iter().all(|&v| {
         let distinct = |skip: Option<u64>| {
             let mut vals: Vec<f64> = targets
                 .iter()
@@ -223,7 +223,7 @@ fn target_folds_identify(obs: &[Obs]) -> bool {
 /// 2·b²·p_v(1 − p_v) + 2·a²·p_h(1 − p_h), σ_ln² = Var(Δn)/n² + (2σ/R)², n = a·b. Without a
 /// known lattice only the range term is used.
 fn points_gt_sigma(x: &[f64; NVARS], sigma_m: f64) -> f64 {
-    let (w, h, r) = (x[8], x[7], x[V_RANGE].max(0.1));
+    let (w, h, r) = (x[super::V_WIDTH], x[super::V_HEIGHT], x[V_RANGE].max(0.1));
     let range_term = 2.0 * sigma_m / r;
     let (daz, del) = (
         x[super::V_BEAM_AZ].to_radians(),

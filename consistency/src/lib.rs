@@ -7,7 +7,7 @@
 //! (re-simulation through `osiris_models::build_sensor`, the FMU's code path) → [`pairing`]
 //! (timestamp pairing, association, residual rows with their explanatory variables; [`camera`] for
 //! camera RAW campaigns) → [`metrics`] (residual statistics with tolerances, binned metrics,
-//! AVM/DVM/W1) → [`attribution`] (noise model, nuisance baseline, tie check, forward selection over
+//! AVM/DVM/W1) → [`split`] (the held-out rows) → [`attribution`] (noise model, nuisance baseline, tie check, forward selection over
 //! the [`catalogue`] with four gates, joint signatures across quantities) → [`report`]
 //! (`summary.json`, `report.html`) and [`history`] (`--history`).
 //!
@@ -32,6 +32,7 @@ pub mod pairing;
 pub mod protocol;
 pub mod report;
 pub mod simulate;
+pub mod split;
 #[cfg(feature = "truth")]
 pub mod truth;
 #[cfg(feature = "truth")]
@@ -72,10 +73,23 @@ pub const V_RANGE: usize = 0;
 pub const V_AZIMUTH: usize = 1;
 /// Index of `aspect`.
 pub const V_ASPECT: usize = 3;
+/// Index of `area`.
+pub const V_AREA: usize = 4;
+/// Index of `edge`.
+pub const V_EDGE: usize = 5;
 /// Index of `reflectivity`.
 pub const V_REFLECTIVITY: usize = 6;
+/// Index of `height`.
+pub const V_HEIGHT: usize = 7;
+/// Index of `width`.
+pub const V_WIDTH: usize = 8;
 /// Index of `sim`.
 pub const V_SIM: usize = 9;
+/// Explanatory variables that describe a target itself (not the geometry of a frame): a held-out
+/// target must lie inside the training split's span of each (a size law learnt on the small
+/// reflectors cannot be judged on the only large one).
+pub const TARGET_VARS: [usize; 5] = [V_AREA, V_EDGE, V_REFLECTIVITY, V_HEIGHT, V_WIDTH];
+
 /// Index of `mount_h`.
 pub const V_MOUNT_H: usize = 13;
 /// Index of `pc_h`.

@@ -92,8 +92,8 @@ pub struct Summary {
     /// Targets of the held-out split (`[split] holdout_fraction`, seeded; empty when stations are
     /// held out, see `holdout`).
     pub holdout_targets: Vec<u64>,
-    /// The held-out split: by target or by station ([`super::cli::Holdout`]).
-    pub holdout: super::cli::Holdout,
+    /// The held-out split: by target or by station ([`super::split::Holdout`]).
+    pub holdout: super::split::Holdout,
     /// RMS residual per quantity over the held-out rows only (calibration offset removed).
     pub holdout_error: BTreeMap<String, f64>,
     pub residual_stats: BTreeMap<String, ResidualStats>,
