@@ -3,6 +3,9 @@
 //!
 //! Each test names the parts of the chain it depends on.
 
+mod common;
+use common::sun;
+
 use std::f64::consts::PI;
 
 use glam::{DVec2, DVec3};
@@ -85,18 +88,6 @@ fn board(
         model_reference: Some(format!(
             "osiris:board?width_m={side_m}&height_m={side_m}&material={material}"
         )),
-        ..Default::default()
-    }
-}
-
-/// OSI sun (azimuth counter-clockwise from north, the scene's +y; +x is east).
-fn sun(azimuth: f64, elevation: f64) -> osi3::EnvironmentalConditions {
-    osi3::EnvironmentalConditions {
-        sun: Some(osi3::environmental_conditions::Sun {
-            azimuth: Some(azimuth),
-            elevation: Some(elevation),
-            intensity: None,
-        }),
         ..Default::default()
     }
 }

@@ -8,6 +8,9 @@
 //! a pinhole camera of a few dozen pixels. The spectral response is a test-made one (three
 //! Gaussian channels) so that the expectations do not depend on the sensor's response model.
 
+mod common;
+use common::sun;
+
 use std::f64::consts::PI;
 
 use glam::{DVec3, Vec3};
@@ -94,18 +97,6 @@ fn moving(
         }),
         r#type: Some(osi3::moving_object::Type::Vehicle as i32),
         model_reference: Some(reference.into()),
-        ..Default::default()
-    }
-}
-
-/// Sun at OSI (azimuth, elevation): direction (−cos e sin a, cos e cos a, sin e).
-fn sun(azimuth: f64, elevation: f64) -> osi3::EnvironmentalConditions {
-    osi3::EnvironmentalConditions {
-        sun: Some(osi3::environmental_conditions::Sun {
-            azimuth: Some(azimuth),
-            elevation: Some(elevation),
-            intensity: None,
-        }),
         ..Default::default()
     }
 }

@@ -11,6 +11,9 @@
 //! toggled effect (the whole file runs in about a second in the dev profile). The camera cases
 //! check only that some emitted image changes.
 
+mod common;
+use common::{db, sun};
+
 use std::f64::consts::PI;
 
 use num_complex::Complex64;
@@ -206,18 +209,6 @@ fn car(oid: u64, pos: [f64; 3], vel: [f64; 3]) -> osi3::MovingObject {
     }
 }
 
-/// OSI sun (azimuth counter-clockwise from north = +y; +x is east).
-fn sun(azimuth: f64, elevation: f64) -> osi3::EnvironmentalConditions {
-    osi3::EnvironmentalConditions {
-        sun: Some(osi3::environmental_conditions::Sun {
-            azimuth: Some(azimuth),
-            elevation: Some(elevation),
-            intensity: None,
-        }),
-        ..Default::default()
-    }
-}
-
 /// A SensorView without a host (the mounting is the global pose) at t = 1 s.
 fn view(objects: Vec<osi3::MovingObject>, env: osi3::EnvironmentalConditions) -> osi3::SensorView {
     osi3::SensorView {
@@ -262,10 +253,6 @@ fn step(sensor: &mut dyn SensorModel, v: &osi3::SensorView) -> StepOutput {
         )
         .expect("step");
     out
-}
-
-fn db(x: f64) -> f64 {
-    10.0 * x.log10()
 }
 
 /// Fails with every message at once.

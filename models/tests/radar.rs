@@ -2,6 +2,9 @@
 //! laws, canonical RCS (physics.md §1.2), P.838 rain, two-ray ground lobing (§1.3), Doppler, and the
 //! end-to-end detections of a corner reflector.
 
+mod common;
+use common::{coherent_power_w, db};
+
 use std::f64::consts::PI;
 
 use num_complex::Complex64;
@@ -120,20 +123,6 @@ fn paths_with(cfg: SensorConfig, v: osi3::SensorView) -> Vec<PathReturn> {
     })
     .expect("propagate")
     .to_vec()
-}
-
-/// Total received power of the coherent sum of paths (the baseband phase e^{j2kR} included), W.
-fn coherent_power_w(paths: &[PathReturn], lambda: f64) -> f64 {
-    let k = 2.0 * PI / lambda;
-    paths
-        .iter()
-        .map(|p| p.amplitude * Complex64::from_polar(1.0, 2.0 * k * p.range_m))
-        .sum::<Complex64>()
-        .norm_sqr()
-}
-
-fn db(x: f64) -> f64 {
-    10.0 * x.log10()
 }
 
 /// Radar equation inverted: σ = P_r (4π)³ R⁴ L / (P_t G_t G_r λ²) with the default front end.

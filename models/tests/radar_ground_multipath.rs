@@ -12,12 +12,15 @@
 //! Two-way pattern factor |F|⁴ with F = 1 + Γ_TE(ψ)·(g(θ_img)/g(θ_dir))·(R_d/R_g)·e^{−jkΔR}
 //! (time dependence e^{jωt}, ε = ε' − jε''): the DD, DG, GD and GG paths summed coherently.
 
+mod common;
+use common::{coherent_power_w, db};
+
 use std::f64::consts::PI;
 
 use num_complex::Complex64;
 use osiris_models::environment::material::MaterialDb;
 use osiris_models::radar::antenna::{AntennaPattern, BeamShape};
-use osiris_models::radar::{PathReturn, RadarConfig, RadarSensor};
+use osiris_models::radar::{RadarConfig, RadarSensor};
 use osiris_models::sensor::{ModelMode, Mounting};
 use osiris_models::{SensorConfig, SensorKind, StepInput};
 use osiris_proto::{id, osi3, timestamp_from_seconds};
@@ -116,20 +119,6 @@ fn sensor(ground: bool) -> RadarSensor {
         .insert("radar.atmospheric_absorption".into(), false);
     c.effects.insert("radar.ground_multipath".into(), ground);
     RadarSensor::new(c).expect("radar")
-}
-
-/// Received power of the coherent sum of the paths (with the baseband's phase e^{j4πR/λ}), W.
-fn coherent_power_w(paths: &[PathReturn], lambda: f64) -> f64 {
-    let k = 2.0 * PI / lambda;
-    paths
-        .iter()
-        .map(|p| p.amplitude * Complex64::from_polar(1.0, 2.0 * k * p.range_m))
-        .sum::<Complex64>()
-        .norm_sqr()
-}
-
-fn db(x: f64) -> f64 {
-    10.0 * x.log10()
 }
 
 /// Received power vs range (`from` … `to` in 0.25 m steps), with and without the effect:
