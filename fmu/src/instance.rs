@@ -59,6 +59,10 @@ impl State {
 
 use State::*;
 
+/// Input findings logged one per line per step; the rest are counted in one line (a frame with
+/// 10⁵ broken objects must not flood the importer's log).
+const MAX_INPUT_ISSUES_LOGGED: usize = 16;
+
 /// Values the importer sets (all back to their start values on `fmi2Reset`).
 #[derive(Debug, Default, Clone, PartialEq)]
 struct Params {
@@ -932,7 +936,7 @@ impl Instance {
         };
         // SAFETY: OSMP: the importer's OSMPSensorViewIn buffer is valid from its fmi2SetInteger
         // until the end of the next fmi2DoStep; we decode it here and keep no pointer.
-        let view = match osi3::SensorView::decode(unsafe { osmp::bytes(addr, len) }) {
+        let mut view = match osi3::SensorView::decode(unsafe { osmp::bytes(addr, len) }) {
             Ok(v) => v,
             Err(e) => {
                 self.skip_frame();
@@ -947,6 +951,20 @@ impl Instance {
                 self.rt.last_successful_time_s = t + h;
                 return Fmi2Status::Warning;
             }
+        };
+
+        // Bad values are named here, once, before any model sees them (osiris_models::input).
+        let screening = osiris_models::input::screen_view(&mut view);
+        self.log_input_issues(F, t, &screening.issues);
+        if screening.frame_skipped {
+            self.skip_frame();
+            self.rt.last_successful_time_s = t + h;
+            return Fmi2Status::Warning;
+        }
+        let clean = if screening.is_clean() {
+            Fmi2Status::Ok
+        } else {
+            Fmi2Status::Warning
         };
 
         let Some(model) = self.rt.model.as_mut() else {
@@ -1019,7 +1037,29 @@ impl Instance {
                 self.rt.sensor_data.published[2], self.rt.perception.published[2]
             )
         });
-        Fmi2Status::Ok
+        clean
+    }
+
+    /// Log the findings of the input screening as fmi2Warning: the first
+    /// [`MAX_INPUT_ISSUES_LOGGED`] one per line, then one line counting the rest.
+    fn log_input_issues(&mut self, f: &str, t: f64, issues: &[osiris_models::input::InputIssue]) {
+        for issue in issues.iter().take(MAX_INPUT_ISSUES_LOGGED) {
+            self.log(
+                Fmi2Status::Warning,
+                LogCategory::Osi,
+                &format!("{f}: SensorView at t = {t} s: {issue}"),
+            );
+        }
+        if issues.len() > MAX_INPUT_ISSUES_LOGGED {
+            self.log(
+                Fmi2Status::Warning,
+                LogCategory::Osi,
+                &format!(
+                    "{f}: SensorView at t = {t} s: {} more findings of the same kind not listed",
+                    issues.len() - MAX_INPUT_ISSUES_LOGGED
+                ),
+            );
+        }
     }
 
     /// Publish "no output" for this step.

@@ -4,6 +4,7 @@
 //! * [`sensor`]: the model trait, the sensor configuration (JSON) and [`sensor::build_sensor`].
 //! * [`frames`]: OSI frame transforms (global -> host vehicle -> sensor), ISO 8855 axes.
 //! * [`ideal`]: the ideal object-level reference model shared by all sensor kinds.
+//! * [`input`]: screening of a SensorView (non-finite, implausible, duplicate) before any model sees it.
 //! * [`effects`]: named, switchable physical effects.
 //! * [`environment`]: scene geometry, materials, sun and sky, weather.
 //! * [`space`]: ray-traced propagation (space design).
@@ -18,6 +19,7 @@ pub mod effects;
 pub mod environment;
 pub mod frames;
 pub mod ideal;
+pub mod input;
 pub mod lidar;
 pub mod radar;
 pub mod recognition;

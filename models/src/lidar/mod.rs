@@ -839,7 +839,7 @@ impl SensorModel for LidarSensor {
             cloud.y_m.push(p.position_m.y as f32);
             cloud.z_m.push(p.position_m.z as f32);
             cloud.intensity.push(p.intensity);
-            cloud.timestamp_ns.push(t0 + p.t_ns);
+            cloud.timestamp_ns.push(t0.saturating_add(p.t_ns));
             cloud.channel.push(p.channel);
             cloud.echo.push(p.echo);
             cloud.object_id.push(p.object_id);
