@@ -79,3 +79,45 @@ def _build_osi_wire() -> Path:
 @pytest.fixture(scope="session")
 def osi_wire() -> OsiWire:
     return OsiWire(_build_osi_wire())
+
+
+class OsirisRun:
+    """The output folder of one `osiris run` (default scenario unless `args` say otherwise)."""
+
+    def __init__(self, out: Path):
+        self.out = out
+
+    def traces(self, type_code: str, suffix: str = ".osi") -> dict[str, Path]:
+        """Trace files of one OSI type (`sd`, `sv`, ...) by the sensor name at the end of the
+        file name (`front-radar`, ...)."""
+        found = {}
+        for p in sorted(self.out.glob(f"*_{type_code}_*{suffix}")):
+            found[p.stem.split("_")[-1]] = p
+        return found
+
+
+def osiris_command() -> list[str]:
+    """The `osiris` executable: `$OSIRIS_BIN`, else `cargo run --release --` from the repo."""
+    exe = os.environ.get("OSIRIS_BIN")
+    if exe:
+        return [exe]
+    return ["cargo", "run", "--quiet", "--release", "--"]
+
+
+def run_osiris(out: Path, *args: str, timeout: int = 1800) -> OsirisRun:
+    """`osiris run --out OUT ARGS`, with the packaged FMUs of `$OSIRIS_FMU_DIR` when set."""
+    cmd = [*osiris_command(), "run", "--quiet", "--out", str(out), *args]
+    fmu_dir = os.environ.get("OSIRIS_FMU_DIR")
+    if fmu_dir:
+        cmd += ["--fmu-dir", fmu_dir]
+    proc = subprocess.run(cmd, cwd=REPO, capture_output=True, timeout=timeout, check=False)
+    assert proc.returncode == 0, (
+        f"{' '.join(cmd)} exited {proc.returncode}:\n{proc.stderr.decode(errors='replace')[-6000:]}"
+    )
+    return OsirisRun(out)
+
+
+@pytest.fixture(scope="session")
+def default_run(tmp_path_factory) -> OsirisRun:
+    """The default `osiris run` (built-in scenario, all three sensors), once per pytest session."""
+    return run_osiris(tmp_path_factory.mktemp("default-run"))
