@@ -27,9 +27,7 @@ use crate::master::{
 };
 use crate::package::{self, PackageOptions};
 use crate::scenario::{ScenarioConfig, SensorMount};
-use crate::trace::mcap::{
-    ChannelHandle, McapTraceReader, McapTraceWriter, PERCEPTION_DATA_SCHEMA,
-};
+use crate::trace::mcap::{ChannelHandle, McapTraceReader, McapTraceWriter, PERCEPTION_DATA_SCHEMA};
 use crate::trace::{NamedOsiTraceWriter, OsiTraceReader, OsiTraceWriter};
 
 /// `print!` to stdout that ends the command quietly when stdout is closed (e.g. `osiris scenario |
@@ -361,8 +359,7 @@ pub fn main_with(cli: Cli) -> Result<()> {
             frame,
             image,
         } => {
-            let what =
-                crate::export::export_frame(&trace, channel.as_deref(), frame, &out, image)?;
+            let what = crate::export::export_frame(&trace, channel.as_deref(), frame, &out, image)?;
             eprintln!("{what}");
             Ok(())
         }
@@ -521,7 +518,11 @@ struct SensorOutputs {
     sd: Option<crate::trace::NamedOsiTraceWriter>,
     sv: Option<crate::trace::NamedOsiTraceWriter>,
     /// PerceptionData `.osi`: (writer at the partial path, partial path, final path).
-    pd: Option<(OsiTraceWriter<std::io::BufWriter<std::fs::File>>, PathBuf, PathBuf)>,
+    pd: Option<(
+        OsiTraceWriter<std::io::BufWriter<std::fs::File>>,
+        PathBuf,
+        PathBuf,
+    )>,
     mcap_sv: Option<ChannelHandle>,
     mcap_sd: Option<ChannelHandle>,
     mcap_pd: Option<ChannelHandle>,
@@ -674,10 +675,9 @@ fn run(args: RunArgs) -> Result<()> {
             })
             .collect();
         // Foreign sensors see the scenario from the first sensor's mounting, with their own ids.
-        let template = scenario
-            .sensors
-            .first()
-            .context("the scenario has no sensors (a foreign FMU takes the first one's mounting)")?;
+        let template = scenario.sensors.first().context(
+            "the scenario has no sensors (a foreign FMU takes the first one's mounting)",
+        )?;
         for (k, s) in foreign_sensors.iter_mut().enumerate() {
             s.mount = Some(SensorMount {
                 name: s.name.clone(),
@@ -765,7 +765,10 @@ fn run(args: RunArgs) -> Result<()> {
         if rs.builtin.is_some() {
             for (name, text) in &params {
                 let var = md.variable(name).with_context(|| {
-                    format!("--param {name}: the {} FMU has no variable `{name}`", rs.label)
+                    format!(
+                        "--param {name}: the {} FMU has no variable `{name}`",
+                        rs.label
+                    )
                 })?;
                 let value = Value::parse(var.var_type, text)
                     .map_err(|e| anyhow::anyhow!("--param {name}={text}: {e}"))?;
@@ -848,7 +851,10 @@ fn run(args: RunArgs) -> Result<()> {
                 o.mcap_pd = Some(w.add_channel(
                     &format!("{}.{}", rs.name, pd.prefix),
                     PERCEPTION_DATA_SCHEMA,
-                    Some(&format!("PerceptionData output of {} ({})", rs.name, rs.label)),
+                    Some(&format!(
+                        "PerceptionData output of {} ({})",
+                        rs.name, rs.label
+                    )),
                 )?);
             }
         }
@@ -901,9 +907,8 @@ fn run(args: RunArgs) -> Result<()> {
         }
         let done = ns(rec.time + rec.step_size);
         if let Some(bytes) = &rec.outputs.sensor_data {
-            let sd = osi3::SensorData::decode(bytes.as_slice()).with_context(|| {
-                format!("decoding the SensorData of `{}`", rec.sensor_name)
-            })?;
+            let sd = osi3::SensorData::decode(bytes.as_slice())
+                .with_context(|| format!("decoding the SensorData of `{}`", rec.sensor_name))?;
             accumulate(s, &sd);
             if let Some(w) = o.sd.as_mut() {
                 w.write_raw(bytes)?;
@@ -914,9 +919,8 @@ fn run(args: RunArgs) -> Result<()> {
         }
         if let Some(bytes) = &rec.outputs.perception {
             // Check it decodes: a broken extension message is an FMU bug worth stopping for.
-            perception::PerceptionData::decode(bytes.as_slice()).with_context(|| {
-                format!("decoding the PerceptionData of `{}`", rec.sensor_name)
-            })?;
+            perception::PerceptionData::decode(bytes.as_slice())
+                .with_context(|| format!("decoding the PerceptionData of `{}`", rec.sensor_name))?;
             s.frames_with_perception_data += 1;
             if let Some((w, _, _)) = o.pd.as_mut() {
                 w.write_raw(bytes)?;
@@ -975,7 +979,13 @@ fn run(args: RunArgs) -> Result<()> {
         None => None,
     };
 
-    let text = summary_text(&source_name, &summary, &stats, mcap_path.as_deref(), elapsed_s);
+    let text = summary_text(
+        &source_name,
+        &summary,
+        &stats,
+        mcap_path.as_deref(),
+        elapsed_s,
+    );
     std::fs::write(args.out.join("summary.txt"), &text)?;
     let json = serde_json::json!({
         "source": source_name,
@@ -1138,8 +1148,9 @@ fn trace_frames(path: &Path, channel: Option<&str>) -> Result<Vec<Frame>> {
     if osiris_proto::trace::mcap::is_mcap_file(path)? {
         let reader = McapTraceReader::open(path)?;
         let ch = reader.select_channel("osi3.SensorView", channel)?;
-        return Ok(crate::master::mcap_sensor_view_frames(&reader, ch.id)?
-            .collect::<Result<_, _>>()?);
+        return Ok(
+            crate::master::mcap_sensor_view_frames(&reader, ch.id)?.collect::<Result<_, _>>()?
+        );
     }
     if let Some(c) = channel {
         bail!(

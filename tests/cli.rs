@@ -530,7 +530,7 @@ fn trace_names_carry_their_message_counts_and_the_mcap_holds_the_same_messages()
     assert_eq!(meta["version"], "3.8.0");
     let mut largest = 0;
     // 40 frames of 0.01 s: radar (0.05 s) 8 cycles, LiDAR (0.1 s) 4.
-    for (sensor, cycles) in [("front_radar", 8), ("roof_lidar", 4)] {
+    for (sensor, cycles) in [("front_radar", 8), ("front_lidar", 4)] {
         let sd = sd_trace(&out, sensor);
         let sv = typed_trace(&out, "sv", sensor);
         let pd = out.join(format!("{sensor}.perception.osi"));
@@ -552,7 +552,10 @@ fn trace_names_carry_their_message_counts_and_the_mcap_holds_the_same_messages()
             assert_eq!(ch.message_encoding, "protobuf");
             assert_eq!(ch.message_count, Some(cycles as u64), "{topic}");
             if schema.starts_with("osi3.") {
-                assert_eq!(ch.metadata["net.asam.osi.trace.channel.osi_version"], "3.8.0");
+                assert_eq!(
+                    ch.metadata["net.asam.osi.trace.channel.osi_version"],
+                    "3.8.0"
+                );
                 assert_eq!(
                     ch.metadata["net.asam.osi.trace.channel.protobuf_version"],
                     osiris_proto::PROTOBUF_VERSION
@@ -573,7 +576,10 @@ fn trace_names_carry_their_message_counts_and_the_mcap_holds_the_same_messages()
         }
     }
     let (ty, osi, n) = parse_trace_file_name(&mcap_trace(&out)).unwrap();
-    assert_eq!((ty.as_str(), osi.as_str(), n), ("multi", "380", largest as u64));
+    assert_eq!(
+        (ty.as_str(), osi.as_str(), n),
+        ("multi", "380", largest as u64)
+    );
 
     // The summary names every file it wrote.
     let summary: serde_json::Value =
@@ -698,7 +704,7 @@ fn export_reads_a_perception_channel_of_an_mcap_trace() {
     let msg = format!("{e:#}");
     assert!(
         msg.contains("2 channels of osiris.perception.PerceptionData")
-            && msg.contains("roof_lidar.PerceptionDataOut"),
+            && msg.contains("front_lidar.PerceptionDataOut"),
         "{msg}"
     );
     let from_mcap = dir.path().join("mcap.pcd");
@@ -707,14 +713,14 @@ fn export_reads_a_perception_channel_of_an_mcap_trace() {
         "export",
         mcap.to_str().unwrap(),
         "--channel",
-        "roof_lidar.PerceptionDataOut",
+        "front_lidar.PerceptionDataOut",
         "--out",
         from_mcap.to_str().unwrap(),
     ])
     .unwrap();
     run_cli(&[
         "export",
-        out.join("roof_lidar.perception.osi").to_str().unwrap(),
+        out.join("front_lidar.perception.osi").to_str().unwrap(),
         "--out",
         from_osi.to_str().unwrap(),
     ])
@@ -724,7 +730,7 @@ fn export_reads_a_perception_channel_of_an_mcap_trace() {
     assert_eq!(a, std::fs::read(&from_osi).unwrap());
     let e = run_cli(&[
         "export",
-        out.join("roof_lidar.perception.osi").to_str().unwrap(),
+        out.join("front_lidar.perception.osi").to_str().unwrap(),
         "--channel",
         "x",
         "--out",
@@ -799,7 +805,10 @@ fn a_foreign_osmp_sensor_fmu_runs_in_the_master() {
         "{text}"
     );
     // Its cycle is 0.02 s: 25 steps over 50 frames of 0.01 s; no PerceptionData output, no file.
-    for (s, name) in [(&sensors[0], "OSMP Dummy Sensor FMU"), (&sensors[1], "second")] {
+    for (s, name) in [
+        (&sensors[0], "OSMP Dummy Sensor FMU"),
+        (&sensors[1], "second"),
+    ] {
         assert_eq!(s["frames"], 25, "{s}");
         assert!(s["perception_trace"].is_null(), "{s}");
         let sd: Vec<osi3::SensorData> = read_messages(typed_trace(&out, "sd", name)).unwrap();
@@ -907,7 +916,10 @@ fn a_foreign_osmp_source_fmu_feeds_the_sensors() {
             assert!(!gt.moving_object.is_empty(), "{sensor} {n}");
             let t = osiris_proto::timestamp_to_seconds(v.timestamp.as_ref().unwrap());
             let instant = 0.02 + n as f64 * if sensor == "radar" { 0.05 } else { 0.1 };
-            assert!((t - instant).abs() <= 0.01 + 1e-6, "{sensor} {n}: {t} for {instant}");
+            assert!(
+                (t - instant).abs() <= 0.01 + 1e-6,
+                "{sensor} {n}: {t} for {instant}"
+            );
         }
         let sd: Vec<osi3::SensorData> = read_messages(sd_trace(&out, sensor)).unwrap();
         assert_eq!(sd.len(), cycles, "{sensor}");
@@ -917,10 +929,7 @@ fn a_foreign_osmp_source_fmu_feeds_the_sensors() {
         mcap_frames(&mcap, "radar.OSMPSensorViewIn"),
         raw_frames(&typed_trace(&out, "sv", "radar"))
     );
-    assert!(
-        mcap.osi_trace_metadata().unwrap()["data_sources"]
-            .contains("OSMP Dummy Source FMU")
-    );
+    assert!(mcap.osi_trace_metadata().unwrap()["data_sources"].contains("OSMP Dummy Source FMU"));
 
     // A sensor FMU is not a source.
     let bad = osiris_process(&[

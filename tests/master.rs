@@ -989,12 +989,21 @@ fn a_sensor_fires_exactly_at_its_cycle_over_even_frames() {
         let instant = n as f64 * 0.05;
         assert!((t - instant).abs() < 1e-12, "step {n}: t = {t}");
         assert!((h - 0.05).abs() < 1e-12, "step {n}: h = {h}");
-        assert!((frame_t - instant).abs() < 1e-9, "step {n}: frame {frame_t}");
-        assert!((sd_t - instant).abs() < 1e-9, "step {n}: SensorData at {sd_t}");
+        assert!(
+            (frame_t - instant).abs() < 1e-9,
+            "step {n}: frame {frame_t}"
+        );
+        assert!(
+            (sd_t - instant).abs() < 1e-9,
+            "step {n}: SensorData at {sd_t}"
+        );
     }
     for w in seen.windows(2) {
         assert!((w[1].3 - w[0].3 - 0.05).abs() < 1e-9, "{w:?}");
-        assert!((w[0].0 + w[0].1 - w[1].0).abs() < 1e-12, "contiguous: {w:?}");
+        assert!(
+            (w[0].0 + w[0].1 - w[1].0).abs() < 1e-12,
+            "contiguous: {w:?}"
+        );
     }
 }
 
@@ -1006,7 +1015,9 @@ fn a_sensor_keeps_its_cycle_over_jittered_frames() {
     // too late. Its communication points are the exact grid.
     let mut state: u64 = 0x2545_f491_4f6c_dd1d;
     let mut jitter = || {
-        state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1);
         ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.004
     };
     let times: Vec<f64> = (0..501)
@@ -1047,6 +1058,9 @@ fn a_sensor_faster_than_the_frames_steps_at_every_frame_with_contiguous_steps() 
         let k = t / 0.05;
         assert!((k - k.round()).abs() < 1e-9, "{t} on the grid");
         let m = h / 0.05;
-        assert!((m - m.round()).abs() < 1e-9 && m >= 1.0, "{h} a multiple of the cycle");
+        assert!(
+            (m - m.round()).abs() < 1e-9 && m >= 1.0,
+            "{h} a multiple of the cycle"
+        );
     }
 }

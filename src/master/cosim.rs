@@ -363,8 +363,10 @@ fn sensor_view_time(bytes: &[u8]) -> std::result::Result<Option<f64>, prost::Dec
 pub fn mcap_sensor_view_frames(
     reader: &crate::trace::mcap::McapTraceReader,
     channel_id: u16,
-) -> std::result::Result<impl Iterator<Item = std::result::Result<Frame, TraceError>> + use<>, TraceError>
-{
+) -> std::result::Result<
+    impl Iterator<Item = std::result::Result<Frame, TraceError>> + use<>,
+    TraceError,
+> {
     let file = reader.path().display().to_string();
     let topic = reader
         .channels()
