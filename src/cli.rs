@@ -1,12 +1,14 @@
 //! The `osiris` command line.
 //!
-//! * `osiris run`: the main job. Packages the FMUs if needed, steps all three over the built-in
-//!   default scenario (or a scenario JSON / a SensorView `.osi` trace) with the bundled master, and
-//!   writes SensorData traces, PerceptionData traces and a summary to `out/`.
+//! * `osiris run`: the main job. Packages the FMUs if needed, steps all three (and any OSMP sensor FMU
+//!   given with `--fmu`) over the built-in default scenario (or a scenario JSON, a SensorView `.osi` /
+//!   `.mcap` trace, or an OSMP source FMU with `--source`) with the bundled master, and writes each
+//!   sensor's SensorView, SensorData and PerceptionData traces (`.osi`, and/or one OSI `.mcap` per run
+//!   with `--format`) and a summary to `out/`.
 //! * `osiris package [--out DIR]`: builds `camera.fmu`, `radar.fmu`, `lidar.fmu` (default `target/fmu/`).
 //! * `osiris bench <what>`: one JSON line of figures per benchmark.
-//! * `osiris export <trace> --out <file>`: one frame of a PerceptionData trace as PCD/PLY (LiDAR) or
-//!   PNG/CSV (radar range-Doppler map).
+//! * `osiris export <trace> --out <file>`: one frame of a PerceptionData trace (`.osi`, or a channel of
+//!   an `.mcap`) as PCD/PLY (LiDAR), PNG/CSV (radar range-Doppler map) or PNG (camera).
 //! * `osiris consistency --meta <campaign>/consistency.toml --out <dir>`: model vs measurement
 //!   campaign, where it fails and which named effect explains it (summary.json, report.html).
 //! * `osiris scenario`: prints the built-in default scenario as JSON (a starting point for your own).
@@ -565,17 +567,31 @@ fn run(args: RunArgs) -> Result<()> {
     let mut fmus: Vec<(Fmu, PathBuf)> = Vec::new();
     let mut foreign_sensors = Vec::new();
     for (name, path) in &foreign {
-        let fmu = Fmu::load(path).with_context(|| format!("--fmu {}", path.display()))?;
-        let label = fmu.model_description().model_name.clone();
+        // One library per FMU file, however many instances: a second copy of the same binary in
+        // the process would register its globals twice (e.g. protobuf descriptors, which aborts).
+        let same = |p: &PathBuf| {
+            p == path
+                || std::fs::canonicalize(p)
+                    .ok()
+                    .is_some_and(|c| std::fs::canonicalize(path).ok() == Some(c))
+        };
+        let index = match fmus.iter().position(|(_, p)| same(p)) {
+            Some(i) => i,
+            None => {
+                let fmu = Fmu::load(path).with_context(|| format!("--fmu {}", path.display()))?;
+                fmus.push((fmu, path.clone()));
+                fmus.len() - 1
+            }
+        };
+        let label = fmus[index].0.model_description().model_name.clone();
         let name = name.clone().unwrap_or_else(|| label.clone());
         foreign_sensors.push(RunSensor {
             name,
             label,
-            fmu: fmus.len(),
+            fmu: index,
             builtin: None,
             mount: None,
         });
-        fmus.push((fmu, path.clone()));
     }
 
     // Input: the scenario's sensors of the requested kinds (one SensorView stream each), a trace or a

@@ -740,12 +740,15 @@ fn export_reads_a_perception_channel_of_an_mcap_trace() {
     assert!(format!("{e:#}").contains("for .mcap traces"), "{e:#}");
 }
 
-/// The official OSMP example FMUs (`shared/fixtures/osmp-dummy/` beside the repository). A missing
-/// fixture fails the test: these are the foreign FMUs the master is checked against.
+/// The official OSMP example FMUs (`shared/fixtures/osmp-dummy/` beside the repository, or the folder
+/// `$OSIRIS_OSMP_DUMMY_DIR`). A missing fixture fails the test: these are the foreign FMUs the master
+/// is checked against.
 fn osmp_dummy(name: &str) -> PathBuf {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/fixtures/osmp-dummy")
-        .join(name);
+    let dir = std::env::var_os("OSIRIS_OSMP_DUMMY_DIR").map_or_else(
+        || Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/fixtures/osmp-dummy"),
+        PathBuf::from,
+    );
+    let path = dir.join(name);
     assert!(
         path.is_file(),
         "{} is missing: the foreign-FMU tests need the OSMP example FMUs in shared/fixtures/osmp-dummy/",
