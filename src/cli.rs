@@ -1,12 +1,14 @@
 //! The `osiris` command line.
 //!
-//! * `osiris run`: the main job. Packages the FMUs if needed, steps all three over the built-in
-//!   default scenario (or a scenario JSON / a SensorView `.osi` trace) with the bundled master, and
-//!   writes SensorData traces, PerceptionData traces and a summary to `out/`.
+//! * `osiris run`: the main job. Packages the FMUs if needed, steps all three (and any OSMP sensor FMU
+//!   given with `--fmu`) over the built-in default scenario (or a scenario JSON, a SensorView `.osi` /
+//!   `.mcap` trace, or an OSMP source FMU with `--source`) with the bundled master, and writes each
+//!   sensor's SensorView, SensorData and PerceptionData traces (`.osi`, and/or one OSI `.mcap` per run
+//!   with `--format`) and a summary to `out/`.
 //! * `osiris package [--out DIR]`: builds `camera.fmu`, `radar.fmu`, `lidar.fmu` (default `target/fmu/`).
 //! * `osiris bench <what>`: one JSON line of figures per benchmark.
-//! * `osiris export <trace> --out <file>`: one frame of a PerceptionData trace as PCD/PLY (LiDAR) or
-//!   PNG/CSV (radar range-Doppler map).
+//! * `osiris export <trace> --out <file>`: one frame of a PerceptionData trace (`.osi`, or a channel of
+//!   an `.mcap`) as PCD/PLY (LiDAR), PNG/CSV (radar range-Doppler map) or PNG (camera).
 //! * `osiris consistency --meta <campaign>/consistency.toml --out <dir>`: model vs measurement
 //!   campaign, where it fails and which named effect explains it (summary.json, report.html).
 //! * `osiris scenario`: prints the built-in default scenario as JSON (a starting point for your own).
@@ -22,10 +24,13 @@ use indicatif::{ProgressBar, ProgressStyle};
 use osiris_models::SensorKind;
 use osiris_proto::{Message, osi3, perception};
 
-use crate::master::{Fmu, Frame, InstanceOptions, OsmpSensor, RunOptions, StepRecord, Value};
+use crate::master::{
+    Fmu, Frame, InstanceOptions, OsmpSensor, OsmpSource, RunOptions, StepRecord, Value,
+};
 use crate::package::{self, PackageOptions};
 use crate::scenario::{ScenarioConfig, SensorMount};
-use crate::trace::{OsiTraceReader, OsiTraceWriter};
+use crate::trace::mcap::{ChannelHandle, McapTraceReader, McapTraceWriter, PERCEPTION_DATA_SCHEMA};
+use crate::trace::{NamedOsiTraceWriter, OsiTraceReader, OsiTraceWriter};
 
 /// `print!` to stdout that ends the command quietly when stdout is closed (e.g. `osiris scenario |
 /// head`) instead of panicking; other write errors are returned.
@@ -150,9 +155,14 @@ pub enum Command {
     /// a LiDAR point cloud as `.pcd` / `.ply`, a radar range-Doppler map as `.png` / `.csv`, a
     /// camera image as `.png` (8-bit ISP or 16-bit RAW).
     Export {
-        /// PerceptionData trace written by `osiris run`.
+        /// PerceptionData trace written by `osiris run`: `<sensor>.perception.osi`, or the run's
+        /// `.mcap` (with `--channel` when it holds several PerceptionData channels).
         #[arg(value_name = "TRACE")]
         trace: PathBuf,
+        /// `.mcap` traces: the PerceptionData channel (topic), e.g. `front_radar.PerceptionDataOut`
+        /// (default: the only PerceptionData channel).
+        #[arg(long, value_name = "TOPIC")]
+        channel: Option<String>,
         /// Output file; the extension selects the format (.pcd, .ply, .png, .csv).
         #[arg(long, value_name = "FILE")]
         out: PathBuf,
@@ -183,28 +193,60 @@ pub enum Command {
     },
 }
 
+/// Trace formats `osiris run` writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum TraceFormat {
+    /// Single-channel `.osi` traces: SensorView, SensorData and PerceptionData per sensor.
+    Osi,
+    /// One OSI multi-channel `.mcap` trace with every sensor's channels.
+    Mcap,
+    /// Both.
+    Both,
+}
+
 /// Arguments of `osiris run`.
 #[derive(Debug, clap::Args)]
 pub struct RunArgs {
     /// Scenario JSON (default: the built-in scenario; see `osiris scenario`).
-    #[arg(long, value_name = "FILE", conflicts_with = "trace")]
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["trace", "source"])]
     pub scenario: Option<PathBuf>,
-    /// Feed the SensorViews of this `.osi` trace to every sensor instead of a generated scenario.
-    #[arg(long, value_name = "FILE")]
+    /// Feed the SensorViews of this trace to every sensor instead of a generated scenario: an `.osi`
+    /// SensorView trace or a SensorView channel of an `.mcap` trace (recognised by its magic).
+    #[arg(long, value_name = "FILE", conflicts_with = "source")]
     pub trace: Option<PathBuf>,
-    /// Step size for `--trace`, s (default: the time between frames).
+    /// `--trace` `.mcap`: the SensorView channel (topic) to replay (default: the only one).
+    #[arg(long, value_name = "TOPIC", requires = "trace")]
+    pub channel: Option<String>,
+    /// Step this OSMP source FMU (an `OSMPSensorViewOut` output, e.g. a scenario player) every frame
+    /// and feed its SensorView to every sensor.
+    #[arg(long, value_name = "FMU")]
+    pub source: Option<PathBuf>,
+    /// Frame step, s. `--source`: the master's step (default: the source's DefaultExperiment
+    /// stepSize, else 0.01 s); `--trace`: overrides the time between frames.
     #[arg(long, value_name = "S")]
     pub step_size: Option<f64>,
-    /// Sensors to run (default: camera, radar, lidar).
+    /// `--source`: simulated time, s (default: the source's DefaultExperiment stop − start time,
+    /// else 2 s); `--max-frames` stops earlier.
+    #[arg(long, value_name = "S", requires = "source")]
+    pub duration: Option<f64>,
+    /// Built-in sensors to run (default: camera, radar, lidar; none when `--fmu` is given).
     #[arg(long, value_enum, value_delimiter = ',')]
     pub sensors: Vec<SensorArg>,
+    /// Add an OSMP sensor FMU (SensorView in, SensorData out) by another vendor, named NAME (default:
+    /// its modelName); repeatable.
+    #[arg(long = "fmu", value_name = "[NAME=]PATH")]
+    pub fmus: Vec<String>,
     /// Folder with the packaged FMUs (packaged there first if missing or stale).
     #[arg(long, value_name = "DIR")]
     pub fmu_dir: Option<PathBuf>,
     /// Output folder.
     #[arg(long, value_name = "DIR", default_value = "out")]
     pub out: PathBuf,
-    /// FMU parameter `NAME=VALUE` for every sensor (e.g. `mode=ideal`, `range_m=80`); repeatable.
+    /// Trace format: `osi` (one `.osi` file per stream), `mcap` (one `.mcap` per run), `both`.
+    #[arg(long, value_enum, default_value = "osi")]
+    pub format: TraceFormat,
+    /// FMU parameter `NAME=VALUE` for every built-in sensor (e.g. `mode=ideal`, `range_m=80`);
+    /// repeatable.
     #[arg(long = "param", value_name = "NAME=VALUE")]
     pub params: Vec<String>,
     /// Stop after this many frames.
@@ -214,7 +256,7 @@ pub struct RunArgs {
     #[arg(long)]
     pub parallel: bool,
     /// Step every sensor at every frame (default: each sensor at its own cycle, the FMU's default
-    /// step size, rounded to a multiple of the frame step).
+    /// step size, at t0 + n·cycle on the master's clock with the frame nearest to each instant).
     #[arg(long)]
     pub every_frame: bool,
     /// No progress bar.
@@ -314,11 +356,12 @@ pub fn main_with(cli: Cli) -> Result<()> {
         }
         Command::Export {
             trace,
+            channel,
             out,
             frame,
             image,
         } => {
-            let what = crate::export::export_frame(&trace, frame, &out, image)?;
+            let what = crate::export::export_frame(&trace, channel.as_deref(), frame, &out, image)?;
             eprintln!("{what}");
             Ok(())
         }
@@ -426,10 +469,13 @@ struct SensorStats {
     sensor: String,
     kind: String,
     fmu: String,
-    sensor_data_trace: String,
-    perception_trace: String,
+    sensor_data_trace: Option<String>,
+    sensor_view_trace: Option<String>,
+    perception_trace: Option<String>,
+    sensor_view_frames: usize,
     frames: usize,
     frames_with_sensor_data: usize,
+    frames_with_perception_data: usize,
     moving_objects_detected_total: usize,
     stationary_objects_detected_total: usize,
     max_moving_objects_in_a_frame: usize,
@@ -441,25 +487,185 @@ struct SensorStats {
 
 /// One sensor of a run: an FMU instance fed by one SensorView stream.
 struct RunSensor {
+    /// Instance name, trace names, mcap topic prefix.
     name: String,
-    kind: SensorKind,
+    /// `camera`, `radar`, `lidar`, or a foreign FMU's modelName.
+    label: String,
+    /// Index into the run's loaded FMUs.
+    fmu: usize,
+    /// The built-in kind (parameters from `--param` apply to these).
+    builtin: Option<SensorKind>,
+    /// Scenario input: the mounting whose SensorView the sensor gets.
+    mount: Option<SensorMount>,
+}
+
+/// `--fmu [NAME=]PATH`.
+fn parse_fmu_arg(arg: &str) -> (Option<String>, PathBuf) {
+    match arg.split_once('=') {
+        Some((name, path)) if !name.is_empty() && !name.contains('/') && !path.is_empty() => {
+            (Some(name.to_owned()), PathBuf::from(path))
+        }
+        _ => (None, PathBuf::from(arg)),
+    }
+}
+
+/// Seconds as ns for mcap times (negative: 0).
+fn ns(t: f64) -> u64 {
+    (t * 1e9).round().max(0.0) as u64
+}
+
+/// Where a run writes one sensor's streams.
+#[derive(Default)]
+struct SensorOutputs {
+    sd: Option<crate::trace::NamedOsiTraceWriter>,
+    sv: Option<crate::trace::NamedOsiTraceWriter>,
+    /// PerceptionData `.osi`: (writer at the partial path, partial path, final path).
+    pd: Option<(
+        OsiTraceWriter<std::io::BufWriter<std::fs::File>>,
+        PathBuf,
+        PathBuf,
+    )>,
+    mcap_sv: Option<ChannelHandle>,
+    mcap_sd: Option<ChannelHandle>,
+    mcap_pd: Option<ChannelHandle>,
+}
+
+/// The input of a run.
+enum RunInput {
+    /// Scenario or trace frames, all read before the run.
+    Frames(Vec<Frame>),
+    /// An OSMP source FMU stepped every frame.
+    Source {
+        source: Box<OsmpSource>,
+        start: f64,
+        step: f64,
+        frames: usize,
+    },
 }
 
 fn run(args: RunArgs) -> Result<()> {
-    let kinds = sensor_list(&args.sensors);
     let params = parse_params(&args.params)?;
+    let foreign: Vec<(Option<String>, PathBuf)> =
+        args.fmus.iter().map(|a| parse_fmu_arg(a)).collect();
+    let kinds: Vec<SensorKind> = if args.sensors.is_empty() && !foreign.is_empty() {
+        Vec::new()
+    } else {
+        sensor_list(&args.sensors)
+    };
+    if let Some(h) = args.step_size
+        && !(h > 0.0 && h.is_finite())
+    {
+        bail!("--step-size {h}: expected a step > 0 s");
+    }
+    if let Some(d) = args.duration
+        && !(d > 0.0 && d.is_finite())
+    {
+        bail!("--duration {d}: expected a time > 0 s");
+    }
 
-    // Scenario source: the scenario's sensors of the requested kinds (one SensorView stream each),
-    // or a SensorView trace fed to one instance of each requested kind.
-    let (run_sensors, frames, source_name) = if let Some(trace) = &args.trace {
-        let sensors: Vec<RunSensor> = kinds
+    // Foreign FMUs first: a bad path or a non-OSMP FMU is reported before anything is packaged.
+    let mut fmus: Vec<(Fmu, PathBuf)> = Vec::new();
+    let mut foreign_sensors = Vec::new();
+    for (name, path) in &foreign {
+        // One library per FMU file, however many instances: a second copy of the same binary in
+        // the process would register its globals twice (e.g. protobuf descriptors, which aborts).
+        let same = |p: &PathBuf| {
+            p == path
+                || std::fs::canonicalize(p)
+                    .ok()
+                    .is_some_and(|c| std::fs::canonicalize(path).ok() == Some(c))
+        };
+        let index = match fmus.iter().position(|(_, p)| same(p)) {
+            Some(i) => i,
+            None => {
+                let fmu = Fmu::load(path).with_context(|| format!("--fmu {}", path.display()))?;
+                fmus.push((fmu, path.clone()));
+                fmus.len() - 1
+            }
+        };
+        let label = fmus[index].0.model_description().model_name.clone();
+        let name = name.clone().unwrap_or_else(|| label.clone());
+        foreign_sensors.push(RunSensor {
+            name,
+            label,
+            fmu: index,
+            builtin: None,
+            mount: None,
+        });
+    }
+
+    // Input: the scenario's sensors of the requested kinds (one SensorView stream each), a trace or a
+    // source fed to one instance of each requested kind.
+    let builtin: Vec<RunSensor>;
+    let (input, source_name, custom_name) = if let Some(trace) = &args.trace {
+        builtin = kinds
             .iter()
             .map(|k| RunSensor {
                 name: k.name().to_owned(),
-                kind: *k,
+                label: k.name().to_owned(),
+                fmu: 0,
+                builtin: Some(*k),
+                mount: None,
             })
             .collect();
-        (sensors, trace_frames(trace)?, trace.display().to_string())
+        let frames = trace_frames(trace, args.channel.as_deref())?;
+        let stem = trace
+            .file_stem()
+            .map_or("trace".into(), |s| s.to_string_lossy().into_owned());
+        (
+            RunInput::Frames(frames),
+            trace.display().to_string(),
+            format!("replay-{stem}"),
+        )
+    } else if let Some(path) = &args.source {
+        builtin = kinds
+            .iter()
+            .map(|k| RunSensor {
+                name: k.name().to_owned(),
+                label: k.name().to_owned(),
+                fmu: 0,
+                builtin: Some(*k),
+                mount: None,
+            })
+            .collect();
+        let fmu = Fmu::load(path).with_context(|| format!("--source {}", path.display()))?;
+        let md = fmu.model_description();
+        let model = md.model_name.clone();
+        let experiment = md.default_experiment;
+        let mut source = OsmpSource::instantiate(&fmu, "source", InstanceOptions::default())
+            .with_context(|| format!("--source {}", path.display()))?;
+        let start = experiment.and_then(|d| d.start_time).unwrap_or(0.0);
+        let step = args
+            .step_size
+            .or(source.default_step_size())
+            .filter(|h| *h > 0.0 && h.is_finite())
+            .unwrap_or(DEFAULT_SOURCE_STEP_S);
+        let duration = args
+            .duration
+            .or_else(|| {
+                experiment
+                    .and_then(|d| d.stop_time)
+                    .map(|stop| stop - start)
+                    .filter(|d| *d > 0.0)
+            })
+            .unwrap_or(DEFAULT_SOURCE_DURATION_S);
+        let mut frames = ((duration / step) - 1e-9).ceil().max(1.0) as usize;
+        if let Some(n) = args.max_frames {
+            frames = frames.min(n);
+        }
+        source
+            .initialize(start, &[])
+            .with_context(|| format!("initialising the source FMU {}", path.display()))?;
+        (
+            RunInput::Source {
+                source: Box::new(source),
+                start,
+                step,
+                frames,
+            },
+            format!("OSMP source {model} ({})", path.display()),
+            model,
+        )
     } else {
         let scenario = match &args.scenario {
             Some(path) => ScenarioConfig::from_json_file(path)?,
@@ -471,99 +677,208 @@ fn run(args: RunArgs) -> Result<()> {
             .filter(|m| kinds.contains(&m.kind))
             .cloned()
             .collect();
-        if mounts.is_empty() {
+        if mounts.is_empty() && foreign_sensors.is_empty() {
             bail!("the scenario has no sensor of the requested kinds ({kinds:?})");
         }
-        let frames = scenario_frames(&scenario, &mounts, args.max_frames);
-        let sensors = mounts
+        builtin = mounts
             .iter()
             .map(|m| RunSensor {
                 name: m.name.clone(),
-                kind: m.kind,
+                label: m.kind.name().to_owned(),
+                fmu: 0,
+                builtin: Some(m.kind),
+                mount: Some(m.clone()),
             })
             .collect();
+        // Foreign sensors see the scenario from the first sensor's mounting, with their own ids.
+        let template = scenario.sensors.first().context(
+            "the scenario has no sensors (a foreign FMU takes the first one's mounting)",
+        )?;
+        for (k, s) in foreign_sensors.iter_mut().enumerate() {
+            s.mount = Some(SensorMount {
+                name: s.name.clone(),
+                sensor_id: FOREIGN_SENSOR_ID_BASE + k as u64,
+                ..template.clone()
+            });
+        }
+        let all_mounts: Vec<SensorMount> = builtin
+            .iter()
+            .chain(&foreign_sensors)
+            .filter_map(|s| s.mount.clone())
+            .collect();
+        let frames = scenario_frames(&scenario, &all_mounts, args.max_frames);
         let name = args
             .scenario
             .as_ref()
             .map_or("built-in default scenario".to_owned(), |p| {
                 p.display().to_string()
             });
-        (sensors, frames, name)
+        (RunInput::Frames(frames), name, scenario.name.clone())
     };
-    let frames: Vec<Frame> = match args.max_frames {
-        Some(n) => frames.into_iter().take(n).collect(),
-        None => frames,
-    };
-    if frames.is_empty() {
-        bail!("the scenario source produced no frames");
+    let mut run_sensors = builtin;
+    run_sensors.extend(foreign_sensors);
+    if run_sensors.is_empty() {
+        bail!("no sensors to run: name built-in ones with --sensors or add FMUs with --fmu");
     }
+    for (i, s) in run_sensors.iter().enumerate() {
+        if run_sensors[..i].iter().any(|o| o.name == s.name) {
+            bail!(
+                "two sensors are named `{}`; name FMUs with --fmu NAME=PATH",
+                s.name
+            );
+        }
+    }
+    let input = match input {
+        RunInput::Frames(frames) => {
+            let frames: Vec<Frame> = match args.max_frames {
+                Some(n) => frames.into_iter().take(n).collect(),
+                None => frames,
+            };
+            if frames.is_empty() {
+                bail!("the scenario source produced no frames");
+            }
+            RunInput::Frames(frames)
+        }
+        source => source,
+    };
+    let (start_time, n_frames) = match &input {
+        RunInput::Frames(f) => (f[0].time, f.len()),
+        RunInput::Source {
+            start,
+            step,
+            frames,
+            ..
+        } => (start + step, *frames),
+    };
+
+    // Built-in FMUs (one per kind).
     let used_kinds: Vec<SensorKind> = SensorKind::ALL
         .into_iter()
-        .filter(|k| run_sensors.iter().any(|s| s.kind == *k))
+        .filter(|k| run_sensors.iter().any(|s| s.builtin == Some(*k)))
         .collect();
-    let fmu_dir = ensure_fmus(args.fmu_dir.clone(), &used_kinds)?;
+    if !used_kinds.is_empty() {
+        let fmu_dir = ensure_fmus(args.fmu_dir.clone(), &used_kinds)?;
+        for kind in &used_kinds {
+            let path = fmu_dir.join(format!("{}.fmu", kind.name()));
+            let fmu = Fmu::load(&path).with_context(|| format!("loading {}", path.display()))?;
+            for s in run_sensors.iter_mut().filter(|s| s.builtin == Some(*kind)) {
+                s.fmu = fmus.len();
+            }
+            fmus.push((fmu, path));
+        }
+    }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
 
-    // FMUs (one per kind) and instances (one per sensor).
-    let mut fmus = std::collections::HashMap::new();
-    for kind in &used_kinds {
-        let path = fmu_dir.join(format!("{}.fmu", kind.name()));
-        fmus.insert(
-            *kind,
-            Fmu::load(&path).with_context(|| format!("loading {}", path.display()))?,
-        );
-    }
+    // Instances (one per sensor).
     let mut sensors = Vec::new();
     for rs in &run_sensors {
-        let fmu = &fmus[&rs.kind];
-        let mut sensor = OsmpSensor::instantiate(fmu, &rs.name, InstanceOptions::default())?;
+        let (fmu, path) = &fmus[rs.fmu];
+        let mut sensor = OsmpSensor::instantiate(fmu, &rs.name, InstanceOptions::default())
+            .with_context(|| format!("{} ({})", rs.name, path.display()))?;
         let md = fmu.model_description();
         let mut values = Vec::new();
-        for (name, text) in &params {
-            let var = md.variable(name).with_context(|| {
-                format!(
-                    "--param {name}: the {} FMU has no variable `{name}`",
-                    rs.kind.name()
-                )
-            })?;
-            let value = Value::parse(var.var_type, text)
-                .map_err(|e| anyhow::anyhow!("--param {name}={text}: {e}"))?;
-            values.push((name.as_str(), value));
+        if rs.builtin.is_some() {
+            for (name, text) in &params {
+                let var = md.variable(name).with_context(|| {
+                    format!(
+                        "--param {name}: the {} FMU has no variable `{name}`",
+                        rs.label
+                    )
+                })?;
+                let value = Value::parse(var.var_type, text)
+                    .map_err(|e| anyhow::anyhow!("--param {name}={text}: {e}"))?;
+                values.push((name.as_str(), value));
+            }
         }
         sensor
-            .initialize(frames[0].time, &values)
+            .initialize(start_time, &values)
             .with_context(|| format!("initialising sensor `{}`", rs.name))?;
         sensors.push(sensor);
     }
 
-    // Output traces.
-    let n_frames = frames.len();
-    let mut sd_writers = Vec::new();
-    let mut pd_writers = Vec::new();
-    let mut stats: Vec<SensorStats> = Vec::new();
+    // Output traces, written under temporary names and renamed with their message counts.
     let stamp = std::time::SystemTime::now();
-    for rs in &run_sensors {
-        let sd_name = crate::trace::trace_file_name(
-            stamp,
-            "sd",
-            "380",
-            PROTOBUF_VERSION_TAG,
-            n_frames as u64,
-            &rs.name,
+    let write_osi = args.format != TraceFormat::Mcap;
+    let name = |type_code: &str, osi: &str, custom: &str| crate::trace::TraceName {
+        timestamp_utc: stamp,
+        type_code: type_code.to_owned(),
+        osi_version: osi.to_owned(),
+        protobuf_version: PROTOBUF_VERSION_TAG.to_owned(),
+        custom: custom.to_owned(),
+    };
+    let mut mcap = if args.format == TraceFormat::Osi {
+        None
+    } else {
+        let mut w = McapTraceWriter::create_in(&args.out, name("multi", "3.8.0", &custom_name))?;
+        w.set_file_metadata(
+            "description",
+            &format!(
+                "osiris run: {} sensor(s) ({}) fed by {source_name}",
+                run_sensors.len(),
+                run_sensors
+                    .iter()
+                    .map(|s| s.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
         )?;
-        let pd_name = format!("{}.perception.osi", rs.name);
-        sd_writers.push(OsiTraceWriter::create(args.out.join(&sd_name))?);
-        pd_writers.push(OsiTraceWriter::create(args.out.join(&pd_name))?);
+        w.set_file_metadata("data_sources", &source_name)?;
+        Some(w)
+    };
+    let mut outputs: Vec<SensorOutputs> = Vec::new();
+    let mut stats: Vec<SensorStats> = Vec::new();
+    for (rs, sensor) in run_sensors.iter().zip(&sensors) {
+        let (sv_in, sd_out, pd_out) = sensor.binary_variables();
+        let osi_tag = |mime: &str| {
+            crate::master::mime_parameter(mime, "version")
+                .unwrap_or("3.8.0")
+                .to_owned()
+        };
+        let has_pd = pd_out.is_some();
+        let mut o = SensorOutputs::default();
+        if write_osi {
+            o.sd = Some(NamedOsiTraceWriter::create_in(
+                &args.out,
+                name("sd", &osi_tag(&sd_out.mime), &rs.name),
+            )?);
+            o.sv = Some(NamedOsiTraceWriter::create_in(
+                &args.out,
+                name("sv", &osi_tag(&sv_in.mime), &rs.name),
+            )?);
+            if has_pd {
+                let path = args.out.join(format!("{}.perception.osi", rs.name));
+                let partial = args.out.join(format!("{}.perception.osi.part", rs.name));
+                o.pd = Some((OsiTraceWriter::create(&partial)?, partial, path));
+            }
+        }
+        if let Some(w) = mcap.as_mut() {
+            o.mcap_sv = Some(w.add_channel(
+                &format!("{}.{}", rs.name, sv_in.prefix),
+                "osi3.SensorView",
+                Some(&format!("SensorView input of {} ({})", rs.name, rs.label)),
+            )?);
+            o.mcap_sd = Some(w.add_channel(
+                &format!("{}.{}", rs.name, sd_out.prefix),
+                "osi3.SensorData",
+                Some(&format!("SensorData output of {} ({})", rs.name, rs.label)),
+            )?);
+            if let Some(pd) = pd_out {
+                o.mcap_pd = Some(w.add_channel(
+                    &format!("{}.{}", rs.name, pd.prefix),
+                    PERCEPTION_DATA_SCHEMA,
+                    Some(&format!(
+                        "PerceptionData output of {} ({})",
+                        rs.name, rs.label
+                    )),
+                )?);
+            }
+        }
+        outputs.push(o);
         stats.push(SensorStats {
             sensor: rs.name.clone(),
-            kind: rs.kind.name().to_owned(),
-            fmu: fmu_dir
-                .join(format!("{}.fmu", rs.kind.name()))
-                .display()
-                .to_string(),
-            sensor_data_trace: args.out.join(&sd_name).display().to_string(),
-            perception_trace: args.out.join(&pd_name).display().to_string(),
+            kind: rs.label.clone(),
+            fmu: fmus[rs.fmu].1.display().to_string(),
             ..SensorStats::default()
         });
     }
@@ -582,57 +897,118 @@ fn run(args: RunArgs) -> Result<()> {
     let started = Instant::now();
     let mut last_frame = usize::MAX;
     let options = RunOptions {
-        step_size: args.step_size,
+        step_size: match &input {
+            RunInput::Source { step, .. } => Some(*step),
+            RunInput::Frames(_) => args.step_size,
+        },
         parallel: args.parallel,
         multi_rate: !args.every_frame,
     };
-    let summary = crate::master::run(
-        &mut sensors,
-        frames.into_iter().map(Ok::<_, std::convert::Infallible>),
-        &options,
-        |rec: StepRecord<'_>| -> Result<()> {
-            if rec.frame_index != last_frame {
-                bar.inc(1);
-                last_frame = rec.frame_index;
+    let sink = |rec: StepRecord<'_>| -> Result<()> {
+        if rec.frame_index != last_frame {
+            bar.inc(1);
+            last_frame = rec.frame_index;
+        }
+        let s = &mut stats[rec.sensor_index];
+        let o = &mut outputs[rec.sensor_index];
+        s.frames += 1;
+        if !rec.sensor_view.is_empty() {
+            s.sensor_view_frames += 1;
+            if let Some(w) = o.sv.as_mut() {
+                w.write_raw(rec.sensor_view)?;
             }
-            let s = &mut stats[rec.sensor_index];
-            s.frames += 1;
-            if let Some(bytes) = &rec.outputs.sensor_data {
-                sd_writers[rec.sensor_index].write_raw(bytes)?;
-                let sd = osi3::SensorData::decode(bytes.as_slice())
-                    .context("decoding the FMU's SensorData")?;
-                accumulate(s, &sd);
+            if let (Some(w), Some(c)) = (mcap.as_mut(), o.mcap_sv) {
+                w.write(c, rec.sensor_view, ns(rec.frame_time))?;
             }
-            if let Some(bytes) = &rec.outputs.perception {
-                pd_writers[rec.sensor_index].write_raw(bytes)?;
-                // Check it decodes: a broken extension message is an FMU bug worth stopping for.
-                perception::PerceptionData::decode(bytes.as_slice())
-                    .context("decoding the FMU's PerceptionData")?;
+        }
+        let done = ns(rec.time + rec.step_size);
+        if let Some(bytes) = &rec.outputs.sensor_data {
+            let sd = osi3::SensorData::decode(bytes.as_slice())
+                .with_context(|| format!("decoding the SensorData of `{}`", rec.sensor_name))?;
+            accumulate(s, &sd);
+            if let Some(w) = o.sd.as_mut() {
+                w.write_raw(bytes)?;
             }
-            Ok(())
-        },
-    )?;
+            if let (Some(w), Some(c)) = (mcap.as_mut(), o.mcap_sd) {
+                w.write(c, bytes, done)?;
+            }
+        }
+        if let Some(bytes) = &rec.outputs.perception {
+            // Check it decodes: a broken extension message is an FMU bug worth stopping for.
+            perception::PerceptionData::decode(bytes.as_slice())
+                .with_context(|| format!("decoding the PerceptionData of `{}`", rec.sensor_name))?;
+            s.frames_with_perception_data += 1;
+            if let Some((w, _, _)) = o.pd.as_mut() {
+                w.write_raw(bytes)?;
+            }
+            if let (Some(w), Some(c)) = (mcap.as_mut(), o.mcap_pd) {
+                w.write(c, bytes, done)?;
+            }
+        }
+        Ok(())
+    };
+    let summary = match input {
+        RunInput::Frames(frames) => crate::master::run(
+            &mut sensors,
+            frames.into_iter().map(Ok::<_, std::convert::Infallible>),
+            &options,
+            sink,
+        )?,
+        RunInput::Source {
+            mut source,
+            start,
+            step,
+            frames,
+        } => {
+            let summary = crate::master::run(
+                &mut sensors,
+                crate::master::source_frames(&mut source, start, step, frames),
+                &options,
+                sink,
+            )?;
+            source.terminate()?;
+            summary
+        }
+    };
     bar.finish_and_clear();
     let elapsed_s = started.elapsed().as_secs_f64();
-    for w in sd_writers.iter_mut().chain(pd_writers.iter_mut()) {
-        w.flush()?;
-    }
-    for (i, s) in stats.iter_mut().enumerate() {
-        let steps: usize = summary.sensor_data_frames.iter().sum::<usize>().max(1);
-        s.wall_ms_per_sensor_step = 1e3 * elapsed_s / steps as f64;
-        debug_assert_eq!(summary.sensor_data_frames[i], s.frames_with_sensor_data);
-    }
     for sensor in &mut sensors {
         sensor.terminate()?;
     }
+    let steps: usize = stats.iter().map(|s| s.frames).sum::<usize>().max(1);
+    for (s, o) in stats.iter_mut().zip(outputs) {
+        s.wall_ms_per_sensor_step = 1e3 * elapsed_s / steps as f64;
+        if let Some(w) = o.sd {
+            s.sensor_data_trace = Some(w.finish()?.display().to_string());
+        }
+        if let Some(w) = o.sv {
+            s.sensor_view_trace = Some(w.finish()?.display().to_string());
+        }
+        if let Some((w, partial, path)) = o.pd {
+            drop(w.finish()?);
+            crate::trace::rename_trace(&partial, &path)?;
+            s.perception_trace = Some(path.display().to_string());
+        }
+    }
+    let mcap_path = match mcap {
+        Some(w) => Some(w.finish_named()?.display().to_string()),
+        None => None,
+    };
 
-    let text = summary_text(&source_name, &summary, &stats, elapsed_s);
+    let text = summary_text(
+        &source_name,
+        &summary,
+        &stats,
+        mcap_path.as_deref(),
+        elapsed_s,
+    );
     std::fs::write(args.out.join("summary.txt"), &text)?;
     let json = serde_json::json!({
         "source": source_name,
         "frames": summary.frames,
         "end_time_s": summary.end_time,
         "wall_time_s": elapsed_s,
+        "mcap_trace": mcap_path,
         "sensors": stats,
     });
     std::fs::write(
@@ -642,6 +1018,13 @@ fn run(args: RunArgs) -> Result<()> {
     out!("{text}");
     Ok(())
 }
+
+/// `--source` frame step when neither `--step-size` nor the source's DefaultExperiment gives one, s.
+pub const DEFAULT_SOURCE_STEP_S: f64 = 0.01;
+/// `--source` duration when neither `--duration` nor the source's DefaultExperiment gives one, s.
+pub const DEFAULT_SOURCE_DURATION_S: f64 = 2.0;
+/// OSI sensor ids of foreign FMUs fed by the scenario: 1000, 1001, … in `--fmu` order.
+pub const FOREIGN_SENSOR_ID_BASE: u64 = 1000;
 
 fn accumulate(s: &mut SensorStats, sd: &osi3::SensorData) {
     s.frames_with_sensor_data += 1;
@@ -700,6 +1083,7 @@ fn summary_text(
     source: &str,
     summary: &crate::master::RunSummary,
     stats: &[SensorStats],
+    mcap: Option<&str>,
     elapsed_s: f64,
 ) -> String {
     use std::fmt::Write;
@@ -712,6 +1096,9 @@ fn summary_text(
         summary.end_time.unwrap_or(0.0),
         elapsed_s
     );
+    if let Some(m) = mcap {
+        let _ = writeln!(t, "MCAP trace {m}");
+    }
     for s in stats {
         let n = s.frames_with_sensor_data.max(1) as f64;
         let _ = writeln!(t, "\n[{}] {} FMU {}", s.sensor, s.kind, s.fmu);
@@ -740,8 +1127,15 @@ fn summary_text(
         if let Some(c) = s.closest_object_m {
             let _ = writeln!(t, "  closest object          {c:.2} m");
         }
-        let _ = writeln!(t, "  SensorData trace        {}", s.sensor_data_trace);
-        let _ = writeln!(t, "  PerceptionData trace    {}", s.perception_trace);
+        for (what, path) in [
+            ("SensorView trace      ", &s.sensor_view_trace),
+            ("SensorData trace      ", &s.sensor_data_trace),
+            ("PerceptionData trace  ", &s.perception_trace),
+        ] {
+            if let Some(p) = path {
+                let _ = writeln!(t, "  {what}  {p}");
+            }
+        }
     }
     t
 }
@@ -764,8 +1158,22 @@ fn scenario_frames(
         .collect()
 }
 
-/// Frames of a SensorView `.osi` trace: each SensorView is fed to every sensor, at its timestamp.
-fn trace_frames(path: &Path) -> Result<Vec<Frame>> {
+/// Frames of a SensorView trace, each SensorView fed to every sensor at its timestamp: an `.osi` trace,
+/// or channel `channel` (default: the only SensorView channel) of an `.mcap` trace.
+fn trace_frames(path: &Path, channel: Option<&str>) -> Result<Vec<Frame>> {
+    if osiris_proto::trace::mcap::is_mcap_file(path)? {
+        let reader = McapTraceReader::open(path)?;
+        let ch = reader.select_channel("osi3.SensorView", channel)?;
+        return Ok(
+            crate::master::mcap_sensor_view_frames(&reader, ch.id)?.collect::<Result<_, _>>()?
+        );
+    }
+    if let Some(c) = channel {
+        bail!(
+            "{}: --channel {c} is for .mcap traces; this is an .osi trace (one message stream)",
+            path.display()
+        );
+    }
     Ok(
         crate::master::sensor_view_trace_frames(OsiTraceReader::open(path)?)
             .collect::<Result<_, _>>()?,

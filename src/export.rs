@@ -1,5 +1,6 @@
 //! `osiris export`: one frame of a PerceptionData trace (written by `osiris run` as
-//! `<sensor>.perception.osi`) as a file other tools open:
+//! `<sensor>.perception.osi`, or a PerceptionData channel of its `.mcap` trace) as a file other tools
+//! open:
 //!
 //! * LiDAR point cloud → `.pcd` (PCL point cloud data v0.7, binary) or `.ply` (PLY 1.0, binary
 //!   little endian), with x, y, z (m, sensor frame), intensity, timestamp (ns), channel, echo;
@@ -14,7 +15,7 @@ use std::io::Write;
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
-use osiris_proto::perception;
+use osiris_proto::{Message, perception};
 
 use crate::trace::OsiTraceReader;
 
@@ -80,12 +81,51 @@ impl CameraImageSel {
     }
 }
 
+/// The PerceptionData messages of a trace: an `.osi` trace of them, or a channel of an `.mcap` trace
+/// (recognised by its magic): the channel `channel`, else the only PerceptionData channel.
+pub fn perception_messages(
+    trace: &Path,
+    channel: Option<&str>,
+) -> Result<Box<dyn Iterator<Item = Result<perception::PerceptionData>>>> {
+    use osiris_proto::trace::mcap::{McapTraceReader, PERCEPTION_DATA_SCHEMA, is_mcap_file};
+    if is_mcap_file(trace)? {
+        let reader = McapTraceReader::open(trace)?;
+        let ch = reader.select_channel(PERCEPTION_DATA_SCHEMA, channel)?;
+        let (topic, name) = (ch.topic.clone(), trace.display().to_string());
+        let mut index = 0usize;
+        Ok(Box::new(reader.messages(ch.id)?.map(move |m| {
+            let i = index;
+            index += 1;
+            let m = m?;
+            perception::PerceptionData::decode(m.data.as_slice()).with_context(|| {
+                format!("{name}: channel `{topic}`, message {i}: cannot decode the PerceptionData")
+            })
+        })))
+    } else {
+        if let Some(c) = channel {
+            bail!(
+                "{}: --channel {c} is for .mcap traces; this is an .osi trace (one message stream)",
+                trace.display()
+            );
+        }
+        let reader =
+            OsiTraceReader::open(trace).with_context(|| format!("opening {}", trace.display()))?;
+        Ok(Box::new(
+            reader
+                .messages::<perception::PerceptionData>()
+                .map(|m| m.map_err(anyhow::Error::from)),
+        ))
+    }
+}
+
 /// Read frame `frame` (0-based; `None`: the last frame with content for the output format) of a
-/// PerceptionData trace and write it to `out`; the format follows `out`'s extension; `image`: the
+/// PerceptionData trace (`.osi`, or a channel of an `.mcap` trace: `channel`, else the only
+/// PerceptionData channel) and write it to `out`; the format follows `out`'s extension; `image`: the
 /// camera image to write (`None`: the ISP image for camera traces). Returns a one-line description
 /// of what was written.
 pub fn export_frame(
     trace: &Path,
+    channel: Option<&str>,
     frame: Option<usize>,
     out: &Path,
     image: Option<CameraImageSel>,
@@ -104,12 +144,11 @@ pub fn export_frame(
             out.display()
         );
     }
-    let reader =
-        OsiTraceReader::open(trace).with_context(|| format!("opening {}", trace.display()))?;
+    let messages = perception_messages(trace, channel)?;
     let sel = image.unwrap_or(CameraImageSel::Isp);
     let mut chosen: Option<(usize, perception::PerceptionData)> = None;
     let mut camera_trace = image.is_some();
-    for (i, msg) in reader.messages::<perception::PerceptionData>().enumerate() {
+    for (i, msg) in messages.enumerate() {
         let msg = msg.with_context(|| format!("reading {}", trace.display()))?;
         camera_trace |= msg.camera.is_some();
         let has = if wants_cloud {

@@ -11,7 +11,8 @@ use clap::Parser;
 use osiris::cli::{Cli, main_with};
 use osiris::package::{PackageOptions, package};
 use osiris::scenario::ScenarioConfig;
-use osiris::trace::{OsiTraceReader, OsiTraceWriter, read_messages};
+use osiris::trace::mcap::McapTraceReader;
+use osiris::trace::{OsiTraceReader, OsiTraceWriter, parse_trace_file_name, read_messages};
 use osiris_models::SensorKind;
 use osiris_proto::{Message, osi3, perception};
 
@@ -49,14 +50,57 @@ fn files_in(dir: &Path) -> Vec<PathBuf> {
 
 /// The SensorData trace of a sensor in `out` (standard name `<UTC>_sd_380_014_<frames>_<name>.osi`).
 fn sd_trace(out: &Path, sensor: &str) -> PathBuf {
-    let suffix = format!("_{}.osi", sensor.replace('_', "-"));
+    typed_trace(out, "sd", sensor)
+}
+
+/// The `.osi` trace of type `ty` (`sd`, `sv`) of a sensor in `out`.
+fn typed_trace(out: &Path, ty: &str, sensor: &str) -> PathBuf {
+    let suffix = format!("_{}.osi", sensor.replace(['_', ' '], "-"));
     files_in(out)
         .into_iter()
         .find(|p| {
             let n = p.file_name().unwrap().to_string_lossy();
-            n.contains("_sd_380_") && n.ends_with(&suffix)
+            n.contains(&format!("_{ty}_380_")) && n.ends_with(&suffix)
         })
-        .unwrap_or_else(|| panic!("no SensorData trace for {sensor} in {:?}", files_in(out)))
+        .unwrap_or_else(|| panic!("no `{ty}` trace for {sensor} in {:?}", files_in(out)))
+}
+
+/// The run's `.mcap` trace in `out`.
+fn mcap_trace(out: &Path) -> PathBuf {
+    let found: Vec<PathBuf> = files_in(out)
+        .into_iter()
+        .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
+        .collect();
+    assert_eq!(found.len(), 1, "{:?}", files_in(out));
+    found[0].clone()
+}
+
+/// The raw frames of an `.osi` trace.
+fn raw_frames(path: &Path) -> Vec<Vec<u8>> {
+    OsiTraceReader::open(path)
+        .unwrap()
+        .collect::<Result<_, _>>()
+        .unwrap()
+}
+
+/// The messages of an `.mcap` channel.
+fn mcap_frames(reader: &McapTraceReader, topic: &str) -> Vec<Vec<u8>> {
+    reader
+        .topic_messages(topic)
+        .unwrap()
+        .map(|m| m.unwrap().data)
+        .collect()
+}
+
+/// Every file in `out` is a finished trace or summary: no `.part` left.
+fn assert_no_partial_files(out: &Path) {
+    for p in files_in(out) {
+        assert!(
+            !p.to_string_lossy().ends_with(".part"),
+            "left over: {}",
+            p.display()
+        );
+    }
 }
 
 #[test]
@@ -153,10 +197,11 @@ fn main_job_writes_traces_that_show_the_scenario() {
     for mount in &scenario.sensors {
         let frames: Vec<osi3::SensorData> =
             read_messages(sd_trace(out.path(), &mount.name)).unwrap();
-        // Each sensor runs at its own cycle, rounded to a multiple of the scenario step.
+        // Each sensor runs at its own cycle on the master's clock: once per instant n·cycle up to
+        // the last frame's time plus half a step (the instants the frames serve).
         let defaults = osiris_models::SensorConfig::default_for(mount.kind);
-        let k = (defaults.update_cycle_s / scenario.step_s).round().max(1.0) as usize;
-        let expected = steps.div_ceil(k);
+        let last = scenario.time_s(steps - 1) + 0.5 * scenario.step_s;
+        let expected = (last / defaults.update_cycle_s + 1e-9).floor() as usize + 1;
         assert_eq!(frames.len(), expected, "{}", mount.name);
         assert_eq!(defaults.mode, osiris_models::ModelMode::Physical);
         let first = &frames[0];
@@ -445,4 +490,465 @@ fn readme_lists_every_named_effect() {
             e.name
         );
     }
+}
+
+#[test]
+fn trace_names_carry_their_message_counts_and_the_mcap_holds_the_same_messages() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    run_cli(&[
+        "run",
+        "--sensors",
+        "radar,lidar",
+        "--param",
+        "mode=ideal",
+        "--fmu-dir",
+        fmu_dir().to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--max-frames",
+        "40",
+        "--format",
+        "both",
+        "--quiet",
+    ])
+    .unwrap();
+    assert_no_partial_files(&out);
+    let mcap = McapTraceReader::open(mcap_trace(&out)).unwrap();
+    let meta = mcap.osi_trace_metadata().expect("net.asam.osi.trace");
+    for key in [
+        "version",
+        "min_osi_version",
+        "max_osi_version",
+        "min_protobuf_version",
+        "max_protobuf_version",
+        "creation_time",
+        "description",
+    ] {
+        assert!(meta.contains_key(key), "{key}: {meta:?}");
+    }
+    assert_eq!(meta["version"], "3.8.0");
+    let mut largest = 0;
+    // 40 frames of 0.01 s: radar (0.05 s) 8 cycles, LiDAR (0.1 s) 4.
+    for (sensor, cycles) in [("front_radar", 8), ("front_lidar", 4)] {
+        let sd = sd_trace(&out, sensor);
+        let sv = typed_trace(&out, "sv", sensor);
+        let pd = out.join(format!("{sensor}.perception.osi"));
+        for (path, ty) in [(&sd, "sd"), (&sv, "sv")] {
+            let frames = raw_frames(path);
+            assert_eq!(frames.len(), cycles, "{}", path.display());
+            let (t, osi, n) = parse_trace_file_name(path).unwrap();
+            assert_eq!((t.as_str(), osi.as_str(), n), (ty, "380", cycles as u64));
+        }
+        // The .mcap channels hold the same messages, byte for byte, with the channel metadata.
+        for (topic, path, schema) in [
+            ("OSMPSensorDataOut", &sd, "osi3.SensorData"),
+            ("OSMPSensorViewIn", &sv, "osi3.SensorView"),
+            ("PerceptionDataOut", &pd, "osiris.perception.PerceptionData"),
+        ] {
+            let topic = format!("{sensor}.{topic}");
+            let ch = mcap.channel(&topic).unwrap_or_else(|| panic!("{topic}"));
+            assert_eq!(ch.schema_name.as_deref(), Some(schema));
+            assert_eq!(ch.message_encoding, "protobuf");
+            assert_eq!(ch.message_count, Some(cycles as u64), "{topic}");
+            if schema.starts_with("osi3.") {
+                assert_eq!(
+                    ch.metadata["net.asam.osi.trace.channel.osi_version"],
+                    "3.8.0"
+                );
+                assert_eq!(
+                    ch.metadata["net.asam.osi.trace.channel.protobuf_version"],
+                    osiris_proto::PROTOBUF_VERSION
+                );
+            }
+            assert_eq!(mcap_frames(&mcap, &topic), raw_frames(path), "{topic}");
+            largest = largest.max(cycles);
+        }
+        // publish_time = log_time = the message's timestamp.
+        for (m, sd) in mcap
+            .topic_messages(&format!("{sensor}.OSMPSensorDataOut"))
+            .unwrap()
+            .zip(read_messages::<osi3::SensorData>(&sd).unwrap())
+        {
+            let m = m.unwrap();
+            let ts = osiris_proto::timestamp_to_nanos(sd.timestamp.as_ref().unwrap());
+            assert_eq!((m.log_time, m.publish_time), (ts as u64, ts as u64));
+        }
+    }
+    let (ty, osi, n) = parse_trace_file_name(&mcap_trace(&out)).unwrap();
+    assert_eq!(
+        (ty.as_str(), osi.as_str(), n),
+        ("multi", "380", largest as u64)
+    );
+
+    // The summary names every file it wrote.
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(
+        summary["mcap_trace"].as_str().unwrap(),
+        mcap_trace(&out).display().to_string()
+    );
+    for s in summary["sensors"].as_array().unwrap() {
+        for key in ["sensor_data_trace", "sensor_view_trace", "perception_trace"] {
+            assert!(Path::new(s[key].as_str().unwrap()).is_file(), "{key}: {s}");
+        }
+    }
+
+    // The .mcap replays as a SensorView trace: one channel chosen with --channel.
+    let replay = dir.path().join("replay");
+    let e = run_cli(&[
+        "run",
+        "--trace",
+        mcap_trace(&out).to_str().unwrap(),
+        "--sensors",
+        "radar",
+        "--fmu-dir",
+        fmu_dir().to_str().unwrap(),
+        "--out",
+        replay.to_str().unwrap(),
+        "--quiet",
+    ])
+    .unwrap_err();
+    let msg = format!("{e:#}");
+    assert!(
+        msg.contains("2 channels of osi3.SensorView")
+            && msg.contains("--channel")
+            && msg.contains("front_radar.OSMPSensorViewIn"),
+        "{msg}"
+    );
+    run_cli(&[
+        "run",
+        "--trace",
+        mcap_trace(&out).to_str().unwrap(),
+        "--channel",
+        "front_radar.OSMPSensorViewIn",
+        "--sensors",
+        "radar",
+        "--param",
+        "mode=ideal",
+        "--every-frame",
+        "--fmu-dir",
+        fmu_dir().to_str().unwrap(),
+        "--out",
+        replay.to_str().unwrap(),
+        "--format",
+        "mcap",
+        "--quiet",
+    ])
+    .unwrap();
+    assert_no_partial_files(&replay);
+    // `--format mcap` writes no .osi trace.
+    assert!(
+        files_in(&replay)
+            .iter()
+            .all(|p| p.extension().is_none_or(|e| e != "osi")),
+        "{:?}",
+        files_in(&replay)
+    );
+    let again = McapTraceReader::open(mcap_trace(&replay)).unwrap();
+    // Every replayed SensorView is the recorded one.
+    assert_eq!(
+        mcap_frames(&again, "radar.OSMPSensorViewIn"),
+        mcap_frames(&mcap, "front_radar.OSMPSensorViewIn")
+    );
+    let e = run_cli(&[
+        "run",
+        "--trace",
+        mcap_trace(&out).to_str().unwrap(),
+        "--channel",
+        "front_radar.OSMPSensorDataOut",
+        "--sensors",
+        "radar",
+        "--fmu-dir",
+        fmu_dir().to_str().unwrap(),
+        "--out",
+        replay.to_str().unwrap(),
+        "--quiet",
+    ])
+    .unwrap_err();
+    assert!(
+        format!("{e:#}").contains("expected osi3.SensorView"),
+        "{e:#}"
+    );
+}
+
+#[test]
+fn export_reads_a_perception_channel_of_an_mcap_trace() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    run_cli(&[
+        "run",
+        "--sensors",
+        "lidar,radar",
+        "--param",
+        "mode=physical",
+        "--fmu-dir",
+        fmu_dir().to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--max-frames",
+        "12",
+        "--format",
+        "both",
+        "--quiet",
+    ])
+    .unwrap();
+    let mcap = mcap_trace(&out);
+    let e = run_cli(&[
+        "export",
+        mcap.to_str().unwrap(),
+        "--out",
+        dir.path().join("x.pcd").to_str().unwrap(),
+    ])
+    .unwrap_err();
+    let msg = format!("{e:#}");
+    assert!(
+        msg.contains("2 channels of osiris.perception.PerceptionData")
+            && msg.contains("front_lidar.PerceptionDataOut"),
+        "{msg}"
+    );
+    let from_mcap = dir.path().join("mcap.pcd");
+    let from_osi = dir.path().join("osi.pcd");
+    run_cli(&[
+        "export",
+        mcap.to_str().unwrap(),
+        "--channel",
+        "front_lidar.PerceptionDataOut",
+        "--out",
+        from_mcap.to_str().unwrap(),
+    ])
+    .unwrap();
+    run_cli(&[
+        "export",
+        out.join("front_lidar.perception.osi").to_str().unwrap(),
+        "--out",
+        from_osi.to_str().unwrap(),
+    ])
+    .unwrap();
+    let a = std::fs::read(&from_mcap).unwrap();
+    assert!(a.len() > 1000);
+    assert_eq!(a, std::fs::read(&from_osi).unwrap());
+    let e = run_cli(&[
+        "export",
+        out.join("front_lidar.perception.osi").to_str().unwrap(),
+        "--channel",
+        "x",
+        "--out",
+        from_osi.to_str().unwrap(),
+    ])
+    .unwrap_err();
+    assert!(format!("{e:#}").contains("for .mcap traces"), "{e:#}");
+}
+
+/// The official OSMP example FMUs (`shared/fixtures/osmp-dummy/` beside the repository, or the folder
+/// `$OSIRIS_OSMP_DUMMY_DIR`). A missing fixture fails the test: these are the foreign FMUs the master
+/// is checked against.
+fn osmp_dummy(name: &str) -> PathBuf {
+    let dir = std::env::var_os("OSIRIS_OSMP_DUMMY_DIR").map_or_else(
+        || Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/fixtures/osmp-dummy"),
+        PathBuf::from,
+    );
+    let path = dir.join(name);
+    assert!(
+        path.is_file(),
+        "{} is missing: the foreign-FMU tests need the OSMP example FMUs in shared/fixtures/osmp-dummy/",
+        path.display()
+    );
+    path
+}
+
+/// Runs the `osiris` binary (the OSMP examples link the system protobuf, and two of them in one
+/// process abort: each run gets its own process).
+fn osiris_process(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_osiris"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn summary_of(out: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn a_foreign_osmp_sensor_fmu_runs_in_the_master() {
+    let dummy = osmp_dummy("OSMPDummySensor.fmu");
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let run = osiris_process(&[
+        "run",
+        "--fmu",
+        dummy.to_str().unwrap(),
+        "--fmu",
+        &format!("second={}", dummy.display()),
+        "--max-frames",
+        "50",
+        "--format",
+        "both",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert_no_partial_files(&out);
+    let summary = summary_of(&out);
+    let sensors = summary["sensors"].as_array().unwrap();
+    assert_eq!(sensors.len(), 2);
+    // Labelled by its modelName, or the name given.
+    assert_eq!(sensors[0]["sensor"], "OSMP Dummy Sensor FMU");
+    assert_eq!(sensors[0]["kind"], "OSMP Dummy Sensor FMU");
+    assert_eq!(sensors[1]["sensor"], "second");
+    let text = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        text.contains("[second] OSMP Dummy Sensor FMU FMU") && !text.contains("camera"),
+        "{text}"
+    );
+    // Its cycle is 0.02 s: 25 steps over 50 frames of 0.01 s; no PerceptionData output, no file.
+    for (s, name) in [
+        (&sensors[0], "OSMP Dummy Sensor FMU"),
+        (&sensors[1], "second"),
+    ] {
+        assert_eq!(s["frames"], 25, "{s}");
+        assert!(s["perception_trace"].is_null(), "{s}");
+        let sd: Vec<osi3::SensorData> = read_messages(typed_trace(&out, "sd", name)).unwrap();
+        assert_eq!(sd.len(), 25);
+        // The example reports the moving objects in front of it: the car 40 m ahead (id 100).
+        assert!(
+            sd.iter().any(|d| d.moving_object.iter().any(|o| o
+                .header
+                .as_ref()
+                .is_some_and(|h| h.ground_truth_id.iter().any(|g| g.value == Some(100))))),
+            "{name}"
+        );
+        // Its SensorData times are its communication points' ends: exactly 0.02 s apart.
+        for w in sd.windows(2) {
+            let dt = osiris_proto::timestamp_to_seconds(w[1].timestamp.as_ref().unwrap())
+                - osiris_proto::timestamp_to_seconds(w[0].timestamp.as_ref().unwrap());
+            assert!((dt - 0.02).abs() < 1e-6, "{dt}");
+        }
+        assert_eq!(
+            raw_frames(&typed_trace(&out, "sv", name)).len(),
+            25,
+            "{name}: the SensorViews it got"
+        );
+    }
+    assert!(
+        !files_in(&out)
+            .iter()
+            .any(|p| p.to_string_lossy().contains("perception")),
+        "{:?}",
+        files_in(&out)
+    );
+    let mcap = McapTraceReader::open(mcap_trace(&out)).unwrap();
+    let topics: BTreeSet<&str> = mcap.channels().iter().map(|c| c.topic.as_str()).collect();
+    assert_eq!(
+        topics,
+        [
+            "OSMP Dummy Sensor FMU.OSMPSensorDataOut",
+            "OSMP Dummy Sensor FMU.OSMPSensorViewIn",
+            "second.OSMPSensorDataOut",
+            "second.OSMPSensorViewIn",
+        ]
+        .into()
+    );
+    assert_eq!(
+        mcap_frames(&mcap, "second.OSMPSensorDataOut"),
+        raw_frames(&typed_trace(&out, "sd", "second"))
+    );
+
+    // A source FMU is not a sensor: the error names the FMU and the missing variable.
+    let bad = osiris_process(&[
+        "run",
+        "--fmu",
+        osmp_dummy("OSMPDummySource.fmu").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert_eq!(bad.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("OSMPDummySource.fmu") && err.contains("OSMPSensorViewIn"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_foreign_osmp_source_fmu_feeds_the_sensors() {
+    let source = osmp_dummy("OSMPDummySource.fmu");
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let run = osiris_process(&[
+        "run",
+        "--source",
+        source.to_str().unwrap(),
+        "--sensors",
+        "radar,lidar",
+        "--param",
+        "mode=ideal",
+        "--duration",
+        "0.6",
+        "--format",
+        "both",
+        "--fmu-dir",
+        fmu_dir().to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let summary = summary_of(&out);
+    // The source's own step (DefaultExperiment stepSize 0.02 s): 30 frames at 0.02 … 0.60 s.
+    assert_eq!(summary["frames"], 30);
+    assert!((summary["end_time_s"].as_f64().unwrap() - 0.62).abs() < 1e-9);
+    // Radar 0.05 s from t0 = 0.02 s over frames up to 0.60 s (+ half a step): 12 cycles; LiDAR 6.
+    for (sensor, cycles) in [("radar", 12usize), ("lidar", 6)] {
+        let sv: Vec<osi3::SensorView> = read_messages(typed_trace(&out, "sv", sensor)).unwrap();
+        assert_eq!(sv.len(), cycles, "{sensor}");
+        // The SensorViews are the source's: its moving objects, its timestamps on the master's
+        // 0.02 s frames nearest to each cycle.
+        for (n, v) in sv.iter().enumerate() {
+            let gt = v.global_ground_truth.as_ref().unwrap();
+            assert!(!gt.moving_object.is_empty(), "{sensor} {n}");
+            let t = osiris_proto::timestamp_to_seconds(v.timestamp.as_ref().unwrap());
+            let instant = 0.02 + n as f64 * if sensor == "radar" { 0.05 } else { 0.1 };
+            assert!(
+                (t - instant).abs() <= 0.01 + 1e-6,
+                "{sensor} {n}: {t} for {instant}"
+            );
+        }
+        let sd: Vec<osi3::SensorData> = read_messages(sd_trace(&out, sensor)).unwrap();
+        assert_eq!(sd.len(), cycles, "{sensor}");
+    }
+    let mcap = McapTraceReader::open(mcap_trace(&out)).unwrap();
+    assert_eq!(
+        mcap_frames(&mcap, "radar.OSMPSensorViewIn"),
+        raw_frames(&typed_trace(&out, "sv", "radar"))
+    );
+    assert!(mcap.osi_trace_metadata().unwrap()["data_sources"].contains("OSMP Dummy Source FMU"));
+
+    // A sensor FMU is not a source.
+    let bad = osiris_process(&[
+        "run",
+        "--source",
+        osmp_dummy("OSMPDummySensor.fmu").to_str().unwrap(),
+        "--sensors",
+        "radar",
+        "--fmu-dir",
+        fmu_dir().to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(
+        err.contains("OSMPDummySensor.fmu") && err.contains("OSMPSensorViewOut"),
+        "{err}"
+    );
 }

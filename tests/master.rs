@@ -934,3 +934,133 @@ fn end_to_end_camera_fmu() {
 fn end_to_end_lidar_fmu() {
     end_to_end("lidar");
 }
+
+// ---------------------------------------------------------------------------------------------------------
+// Multi-rate stepping: each sensor at its own cycle on the master's clock.
+
+/// Runs the radar FMU (ideal mode, cycle 0.05 s) multi-rate over frames at `times`; returns per step
+/// (communication point, step size, frame time, the SensorData timestamp).
+fn radar_steps(times: &[f64]) -> Vec<(f64, f64, f64, f64)> {
+    use osiris::master::{Frame, RunOptions, StepRecord, run};
+    let dir = assemble_fmu_dir("radar");
+    let fmu = Fmu::from_dir(dir.path()).unwrap();
+    let opts = InstanceOptions {
+        stderr_level: None,
+        ..InstanceOptions::default()
+    };
+    let mut sensors = vec![OsmpSensor::instantiate(&fmu, "radar", opts).unwrap()];
+    assert_eq!(sensors[0].default_step_size(), Some(0.05));
+    sensors[0]
+        .initialize(times[0], &[("mode", Value::from("ideal"))])
+        .unwrap();
+    let frames = times.iter().map(|&t| {
+        Ok::<_, std::convert::Infallible>(Frame::shared(t, sensor_view_with_car(t).encode_to_vec()))
+    });
+    let mut seen = Vec::new();
+    run(
+        &mut sensors,
+        frames,
+        &RunOptions {
+            multi_rate: true,
+            ..RunOptions::default()
+        },
+        |r: StepRecord<'_>| {
+            let sd = osi3::SensorData::decode(r.outputs.sensor_data.as_deref().unwrap()).unwrap();
+            let ts = osiris_proto::timestamp_to_seconds(sd.timestamp.as_ref().unwrap());
+            assert_eq!(
+                r.sensor_view,
+                sensor_view_with_car(r.frame_time).encode_to_vec()
+            );
+            seen.push((r.time, r.step_size, r.frame_time, ts));
+            Ok::<_, std::convert::Infallible>(())
+        },
+    )
+    .unwrap();
+    seen
+}
+
+#[test]
+fn a_sensor_fires_exactly_at_its_cycle_over_even_frames() {
+    // 0.05 s radar over 0.01 s frames: every 5th frame, exactly 0.05 s apart, contiguous steps.
+    let times: Vec<f64> = (0..101).map(|i| f64::from(i) * 0.01).collect();
+    let seen = radar_steps(&times);
+    assert_eq!(seen.len(), 21);
+    for (n, &(t, h, frame_t, sd_t)) in seen.iter().enumerate() {
+        let instant = n as f64 * 0.05;
+        assert!((t - instant).abs() < 1e-12, "step {n}: t = {t}");
+        assert!((h - 0.05).abs() < 1e-12, "step {n}: h = {h}");
+        assert!(
+            (frame_t - instant).abs() < 1e-9,
+            "step {n}: frame {frame_t}"
+        );
+        assert!(
+            (sd_t - instant).abs() < 1e-9,
+            "step {n}: SensorData at {sd_t}"
+        );
+    }
+    for w in seen.windows(2) {
+        assert!((w[1].3 - w[0].3 - 0.05).abs() < 1e-9, "{w:?}");
+        assert!(
+            (w[0].0 + w[0].1 - w[1].0).abs() < 1e-12,
+            "contiguous: {w:?}"
+        );
+    }
+}
+
+#[test]
+fn a_sensor_keeps_its_cycle_over_jittered_frames() {
+    // 0.01 s frames with ±2 ms of deterministic pseudo-random jitter (an LCG): the radar takes the
+    // frame nearest to each 0.05 s instant, so its SensorData times stay within ±2 ms of the grid (no
+    // drift) and its intervals within 0.05 s ± 4 ms: never the 0.04 / 0.06 s of a frame too early or
+    // too late. Its communication points are the exact grid.
+    let mut state: u64 = 0x2545_f491_4f6c_dd1d;
+    let mut jitter = || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1);
+        ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.004
+    };
+    let times: Vec<f64> = (0..501)
+        .map(|i| 1.0 + f64::from(i) * 0.01 + if i == 0 { 0.0 } else { jitter() })
+        .collect();
+    let seen = radar_steps(&times);
+    assert_eq!(seen.len(), 101);
+    for (n, &(t, h, frame_t, sd_t)) in seen.iter().enumerate() {
+        let instant = 1.0 + n as f64 * 0.05;
+        assert!((t - instant).abs() < 1e-9, "step {n}: t = {t}");
+        assert!((h - 0.05).abs() < 1e-9, "step {n}: h = {h}");
+        assert!((sd_t - frame_t).abs() < 1e-9);
+        assert!(
+            (frame_t - instant).abs() <= 0.002 + 1e-9,
+            "step {n}: frame {frame_t} for the instant {instant}"
+        );
+    }
+    for w in seen.windows(2) {
+        let interval = w[1].3 - w[0].3;
+        assert!(
+            (interval - 0.05).abs() <= 0.004 + 1e-9,
+            "interval {interval}: {w:?}"
+        );
+    }
+}
+
+#[test]
+fn a_sensor_faster_than_the_frames_steps_at_every_frame_with_contiguous_steps() {
+    // Frames 0.12 s apart, radar cycle 0.05 s: every frame serves the instants nearest to it; the
+    // steps cover them all, so the communication points stay on the grid and contiguous.
+    let times: Vec<f64> = (0..6).map(|i| f64::from(i) * 0.12).collect();
+    let seen = radar_steps(&times);
+    assert_eq!(seen.len(), 6);
+    for w in seen.windows(2) {
+        assert!((w[0].0 + w[0].1 - w[1].0).abs() < 1e-12, "{seen:?}");
+    }
+    for &(t, h, _, _) in &seen {
+        let k = t / 0.05;
+        assert!((k - k.round()).abs() < 1e-9, "{t} on the grid");
+        let m = h / 0.05;
+        assert!(
+            (m - m.round()).abs() < 1e-9 && m >= 1.0,
+            "{h} a multiple of the cycle"
+        );
+    }
+}

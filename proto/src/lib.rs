@@ -4,7 +4,8 @@
 //!   field numbers; checked against the official `osi-python` descriptors in CI).
 //! * [`perception`]: the osiris extension carrying each sensor's raw perception output
 //!   (`osiris.perception.PerceptionData`).
-//! * [`trace`]: OSI `.osi` trace files (length-prefixed messages), read and written.
+//! * [`trace`]: OSI `.osi` trace files (length-prefixed messages) and, in [`trace::mcap`], OSI
+//!   multi-channel `.mcap` trace files, read and written.
 //!
 //! Files: `proto/osi3/*.proto`, `proto/osiris/perception.proto`.
 
@@ -33,6 +34,10 @@ pub const FILE_DESCRIPTOR_SET: &[u8] =
 
 /// OSI version every top-level message osiris writes carries.
 pub const OSI_VERSION: (u32, u32, u32) = (3, 8, 0);
+
+/// Version of the protobuf implementation that encodes every message osiris writes (prost), for the
+/// `protobuf_version` entries of `.mcap` trace metadata. Kept equal to the `prost` of `Cargo.lock` by a test.
+pub const PROTOBUF_VERSION: &str = "0.14.4";
 
 /// Version of the `osiris.perception` extension message.
 pub const PERCEPTION_EXTENSION_VERSION: &str = "1.0.0";
@@ -103,6 +108,22 @@ mod tests {
         let t = timestamp_from_seconds(-0.5);
         assert_eq!((t.seconds, t.nanos), (Some(-1), Some(500_000_000)));
         assert!((timestamp_to_seconds(&t) + 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn protobuf_version_is_the_locked_prost() {
+        let lock = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../Cargo.lock"))
+            .expect("Cargo.lock beside the workspace manifest");
+        let locked = lock
+            .split("[[package]]")
+            .find(|p| p.contains("\nname = \"prost\"\n"))
+            .and_then(|p| p.lines().find_map(|l| l.strip_prefix("version = \"")))
+            .and_then(|v| v.strip_suffix('"'))
+            .expect("prost in Cargo.lock");
+        assert_eq!(
+            PROTOBUF_VERSION, locked,
+            "update osiris_proto::PROTOBUF_VERSION to the prost version of Cargo.lock"
+        );
     }
 
     #[test]

@@ -6,7 +6,10 @@
 //!   body is an error naming the file, the frame index and the byte offset of the frame.
 //! * [`read_messages`] decodes a whole file into typed messages.
 //! * [`trace_file_name`] builds the standard name
-//!   `<timestamp>_<type>_<osi-version>_<protobuf-version>_<frames>_<custom-name>.osi`.
+//!   `<timestamp>_<type>_<osi-version>_<protobuf-version>_<frames>_<custom-name>.osi`;
+//!   [`NamedOsiTraceWriter`] writes under a temporary name and renames the file to its standard name with
+//!   the number of messages it holds; [`mcap_trace_file_name`] is the `multi` name of a `.mcap` trace.
+//! * [`mcap`]: OSI multi-channel `.mcap` traces ([`mcap::McapTraceWriter`], [`mcap::McapTraceReader`]).
 //!
 //! Frames are limited to [`MAX_FRAME_LEN`] (2 GiB − 1, the protobuf message limit): writers refuse longer
 //! messages, readers refuse longer length prefixes before allocating (a corrupt prefix must not allocate
@@ -16,6 +19,8 @@ use std::fs::File;
 use std::io::{self, BufReader, BufWriter, Read, Write};
 use std::path::Path;
 use std::time::{SystemTime, UNIX_EPOCH};
+
+pub mod mcap;
 
 /// The largest frame readers and writers accept: `i32::MAX` bytes (protobuf messages are < 2 GiB).
 pub const MAX_FRAME_LEN: u64 = i32::MAX as u64;
@@ -86,6 +91,30 @@ pub enum TraceError {
     MessageTooLarge { file: String, len: u64, max: u64 },
     #[error("invalid trace file name component: {0}")]
     InvalidName(String),
+    #[error("{file}: {action}: {source}")]
+    Mcap {
+        file: String,
+        action: &'static str,
+        #[source]
+        source: ::mcap::McapError,
+    },
+    #[error("{file}: {reason}")]
+    InvalidMcap { file: String, reason: String },
+    #[error("{file}: {reason}; channels: {}", list_or_none(.available))]
+    Channel {
+        file: String,
+        reason: String,
+        /// `topic (schema)` of every channel in the file.
+        available: Vec<String>,
+    },
+}
+
+fn list_or_none(items: &[String]) -> String {
+    if items.is_empty() {
+        "none".to_owned()
+    } else {
+        items.join(", ")
+    }
 }
 
 /// Checks a frame length against [`MAX_FRAME_LEN`]; returns the 4-byte little-endian prefix.
@@ -411,6 +440,7 @@ fn version_digits(what: &str, v: &str) -> Result<String, TraceError> {
 ///
 /// * `type_code`: one of [`TRACE_TYPE_CODES`] except `multi` (multi-channel traces are `.mcap`);
 /// * versions: `3.8.0` or `380` (dots are dropped);
+/// * `frames`: the number of messages in the file;
 /// * `custom`: characters other than ASCII letters, digits, `-` and `.` become `-`; empty: the part (and its
 ///   `_`) is omitted.
 pub fn trace_file_name(
@@ -421,9 +451,162 @@ pub fn trace_file_name(
     frames: u64,
     custom: &str,
 ) -> Result<String, TraceError> {
-    if !TRACE_TYPE_CODES.contains(&type_code) || type_code == "multi" {
+    trace_file_name_with_extension(
+        timestamp_utc,
+        type_code,
+        osi_version,
+        protobuf_version,
+        &frames.to_string(),
+        custom,
+        "osi",
+    )
+}
+
+/// The standard name of a multi-channel `.mcap` trace,
+/// `<timestamp>_multi_<osi-version>_<protobuf-version>_<frames>_<custom-name>.mcap`: by the naming
+/// convention `frames` is the largest number of messages of any channel, the OSI version the `version` of
+/// the file's `net.asam.osi.trace` metadata and the protobuf version its `min_protobuf_version`.
+pub fn mcap_trace_file_name(
+    timestamp_utc: SystemTime,
+    osi_version: &str,
+    protobuf_version: &str,
+    frames: u64,
+    custom: &str,
+) -> Result<String, TraceError> {
+    trace_file_name_with_extension(
+        timestamp_utc,
+        "multi",
+        osi_version,
+        protobuf_version,
+        &frames.to_string(),
+        custom,
+        "mcap",
+    )
+}
+
+/// The parts of a standard trace file name other than the number of frames, which is known only once the
+/// trace is complete ([`NamedOsiTraceWriter`], [`mcap::McapTraceWriter::create_in`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TraceName {
+    /// When the recording started (the name's ISO 8601 UTC timestamp).
+    pub timestamp_utc: SystemTime,
+    /// One of [`TRACE_TYPE_CODES`] (`multi` for `.mcap` only).
+    pub type_code: String,
+    /// `3.8.0` or `380`.
+    pub osi_version: String,
+    /// e.g. `0.14`.
+    pub protobuf_version: String,
+    /// The custom trace name (sanitised as in [`trace_file_name`]).
+    pub custom: String,
+}
+
+impl TraceName {
+    /// The file name for a trace of `frames` messages with extension `ext` (`osi` or `mcap`).
+    pub fn file_name(&self, frames: u64, ext: &str) -> Result<String, TraceError> {
+        trace_file_name_with_extension(
+            self.timestamp_utc,
+            &self.type_code,
+            &self.osi_version,
+            &self.protobuf_version,
+            &frames.to_string(),
+            &self.custom,
+            ext,
+        )
+    }
+
+    /// The name a trace is written under until its frame count is known: the standard name with
+    /// `partial` in place of the frame count and `.part` appended (a run that fails leaves these).
+    pub fn partial_file_name(&self, ext: &str) -> Result<String, TraceError> {
+        Ok(trace_file_name_with_extension(
+            self.timestamp_utc,
+            &self.type_code,
+            &self.osi_version,
+            &self.protobuf_version,
+            "partial",
+            &self.custom,
+            ext,
+        )? + ".part")
+    }
+}
+
+/// Renames the trace at `from` to `to` (the final step of writing under a temporary name).
+pub fn rename_trace(from: &Path, to: &Path) -> Result<(), TraceError> {
+    std::fs::rename(from, to).map_err(|source| TraceError::Io {
+        action: "rename",
+        file: format!("{} to {}", from.display(), to.display()),
+        source,
+    })
+}
+
+/// An `.osi` trace written under a temporary name ([`TraceName::partial_file_name`]) in a folder and renamed
+/// to its standard name, which carries the number of messages written, by [`NamedOsiTraceWriter::finish`].
+#[derive(Debug)]
+pub struct NamedOsiTraceWriter {
+    writer: OsiTraceWriter<BufWriter<File>>,
+    dir: std::path::PathBuf,
+    partial: std::path::PathBuf,
+    name: TraceName,
+}
+
+impl NamedOsiTraceWriter {
+    /// Creates `<dir>/<partial name>`.
+    pub fn create_in(dir: impl AsRef<Path>, name: TraceName) -> Result<Self, TraceError> {
+        let dir = dir.as_ref().to_owned();
+        let partial = dir.join(name.partial_file_name("osi")?);
+        Ok(NamedOsiTraceWriter {
+            writer: OsiTraceWriter::create(&partial)?,
+            dir,
+            partial,
+            name,
+        })
+    }
+
+    /// The underlying writer.
+    pub fn writer(&mut self) -> &mut OsiTraceWriter<BufWriter<File>> {
+        &mut self.writer
+    }
+
+    /// Writes already-encoded message bytes as one frame.
+    pub fn write_raw(&mut self, bytes: &[u8]) -> Result<(), TraceError> {
+        self.writer.write_raw(bytes)
+    }
+
+    /// Frames written so far.
+    pub fn frames(&self) -> u64 {
+        self.writer.frames()
+    }
+
+    /// Flushes, closes and renames the file to its standard name; returns the final path.
+    pub fn finish(self) -> Result<std::path::PathBuf, TraceError> {
+        let frames = self.writer.frames();
+        let file = self.writer.finish()?;
+        drop(file);
+        let path = self.dir.join(self.name.file_name(frames, "osi")?);
+        rename_trace(&self.partial, &path)?;
+        Ok(path)
+    }
+}
+
+/// [`trace_file_name`] with any extension of the convention (`osi`, `txth`, `mcap`) and the frames field
+/// given as text.
+fn trace_file_name_with_extension(
+    timestamp_utc: SystemTime,
+    type_code: &str,
+    osi_version: &str,
+    protobuf_version: &str,
+    frames: &str,
+    custom: &str,
+    ext: &str,
+) -> Result<String, TraceError> {
+    if !["osi", "txth", "mcap"].contains(&ext) {
         return Err(TraceError::InvalidName(format!(
-            "type `{type_code}`, expected one of sv, svc, gt, hvd, sd, tc, tcu, tu, mr, su (`multi` is for .mcap)"
+            "extension `{ext}`, expected osi, txth or mcap"
+        )));
+    }
+    if !TRACE_TYPE_CODES.contains(&type_code) || (type_code == "multi") != (ext == "mcap") {
+        return Err(TraceError::InvalidName(format!(
+            "type `{type_code}` for a .{ext} trace, expected one of sv, svc, gt, hvd, sd, tc, tcu, tu, mr, su \
+             (`multi`, and only `multi`, for .mcap)"
         )));
     }
     let ts = format_timestamp_utc(timestamp_utc)
@@ -441,9 +624,9 @@ pub fn trace_file_name(
         })
         .collect();
     Ok(if custom.is_empty() {
-        format!("{ts}_{type_code}_{osi}_{pb}_{frames}.osi")
+        format!("{ts}_{type_code}_{osi}_{pb}_{frames}.{ext}")
     } else {
-        format!("{ts}_{type_code}_{osi}_{pb}_{frames}_{custom}.osi")
+        format!("{ts}_{type_code}_{osi}_{pb}_{frames}_{custom}.{ext}")
     })
 }
 
@@ -690,6 +873,34 @@ mod tests {
         assert!(trace_file_name(t, "xx", "380", "2112", 7, "a").is_err());
         assert!(trace_file_name(t, "multi", "380", "2112", 7, "a").is_err());
         assert!(trace_file_name(t, "sv", "3.8.x", "2112", 7, "a").is_err());
+        assert_eq!(
+            mcap_trace_file_name(t, "3.8.0", "0.14", 67, "run").unwrap(),
+            "20210818T150542Z_multi_380_014_67_run.mcap"
+        );
+        let name = TraceName {
+            timestamp_utc: t,
+            type_code: "sd".to_owned(),
+            osi_version: "3.8.0".to_owned(),
+            protobuf_version: "0.14".to_owned(),
+            custom: "front_radar".to_owned(),
+        };
+        assert_eq!(
+            name.partial_file_name("osi").unwrap(),
+            "20210818T150542Z_sd_380_014_partial_front-radar.osi.part"
+        );
+        assert!(name.file_name(3, "mcap").is_err(), "sd is not a .mcap type");
+        let dir = tempfile::tempdir().unwrap();
+        let mut w = NamedOsiTraceWriter::create_in(dir.path(), name).unwrap();
+        for i in 0..3 {
+            w.write_raw(&sv(i).encode_to_vec()).unwrap();
+        }
+        let path = w.finish().unwrap();
+        assert_eq!(
+            path.file_name().unwrap(),
+            "20210818T150542Z_sd_380_014_3_front-radar.osi"
+        );
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+        assert_eq!(read_messages::<osi3::SensorView>(&path).unwrap().len(), 3);
         assert_eq!(
             format_timestamp_utc(UNIX_EPOCH).unwrap(),
             "19700101T000000Z"

@@ -10,13 +10,18 @@
 //! * every sensor is stepped once per frame, in sensor order (or in parallel, one thread per sensor, with
 //!   [`RunOptions::parallel`]); then the sink receives one [`StepRecord`] per stepped sensor, in sensor
 //!   order, so it can write SensorData / PerceptionData into per-sensor trace writers;
-//! * with [`RunOptions::multi_rate`], each sensor runs at its own cycle instead (its
-//!   `DefaultExperiment/@stepSize`, the sensor's update cycle): at a frame with time `t` and frame step
-//!   `h` a sensor is due when `t` reached its next communication point; it is stepped with
-//!   `h_i = k·h`, `k = max(1, round(cycle / h))`, so its communication points stay contiguous
-//!   (`t_next = t + h_i`) and fall on frames when the frames are evenly spaced. Its effective cycle is
-//!   the multiple of the frame step nearest to its own (e.g. a 0.033 s camera on 0.02 s frames runs
-//!   every 0.04 s).
+//! * with [`RunOptions::multi_rate`], each sensor runs at its own cycle `c` instead (its
+//!   `DefaultExperiment/@stepSize`, the sensor's update cycle) on the master's clock: its communication
+//!   points are exactly `t0 + n·c` (`t0` the first frame's time), whatever the frame times. The frame
+//!   that serves the instant `t0 + n·c` is the first frame whose time is at or after the instant, within a
+//!   tolerance of half that frame's step `h`: the frame nearest to the instant (frame `t` serves the
+//!   instants in `(t − h_prev/2, t + h/2]`). The sensor is stepped with that frame's SensorView at
+//!   `fmi2DoStep(t0 + n·c, h_i)`, `h_i` reaching to the first instant after the frame's window, so its
+//!   communication points stay contiguous; `h_i = c` unless frames are farther apart than `c` (then
+//!   one frame serves several instants and `h_i` is a multiple of `c`). A 0.05 s sensor over 0.01 s
+//!   frames steps every 5th frame at exactly 0.05 s intervals; over frames with jittered times it
+//!   takes the frame nearest to each instant, so the frame times it sees stay within the jitter of the
+//!   grid and never drift.
 //!
 //! ```no_run
 //! # use osiris::master::*;
@@ -37,7 +42,7 @@ use std::io::Read;
 
 use osiris_proto::osi3;
 
-use super::{BoxError, MasterError, OsmpSensor, Result, StepOutputs};
+use super::{BoxError, MasterError, OsmpSensor, OsmpSource, Result, StepOutputs};
 use crate::trace::{OsiTraceReader, TraceError};
 
 /// The input of one communication point.
@@ -87,10 +92,15 @@ pub struct StepRecord<'a> {
     pub sensor_index: usize,
     /// The sensor's instance name.
     pub sensor_name: &'a str,
-    /// The communication point `t` of the step.
+    /// The communication point `t` of the step (with [`RunOptions::multi_rate`] the sensor's own
+    /// instant `t0 + n·cycle`, else the frame's time).
     pub time: f64,
     /// The step size `h`; the outputs belong to `t + h` in FMI terms.
     pub step_size: f64,
+    /// The time of the frame whose SensorView the sensor got.
+    pub frame_time: f64,
+    /// The encoded SensorView the sensor got (empty: none).
+    pub sensor_view: &'a [u8],
     pub outputs: &'a StepOutputs,
 }
 
@@ -145,8 +155,9 @@ where
                 .filter(|c| *c > 0.0 && c.is_finite())
         })
         .collect();
-    // Next communication point of each sensor (multi-rate); `None`: due at the next frame.
-    let mut next_due: Vec<Option<f64>> = vec![None; n];
+    // Multi-rate: index `n` of each sensor's next instant `t0 + n·cycle`.
+    let mut next_instant: Vec<u64> = vec![0; n];
+    let mut t0: Option<f64> = None;
     let mut frames = frames.into_iter().peekable();
     let mut previous_h: Option<f64> = None;
     let mut frame_index = 0;
@@ -185,21 +196,31 @@ where
         let view = |i: usize| -> &[u8] {
             &frame.sensor_views[if frame.sensor_views.len() == 1 { 0 } else { i }]
         };
-        // Which sensors step at this frame, and with which step size.
-        let steps: Vec<Option<f64>> = (0..n)
+        let t0 = *t0.get_or_insert(frame.time);
+        // Which sensors step at this frame: (communication point, step size).
+        let steps: Vec<Option<(f64, f64)>> = (0..n)
             .map(|i| match cycles[i] {
-                None => Some(h),
-                Some(cycle) => match next_due[i] {
-                    Some(due) if frame.time < due - 0.5 * h => None,
-                    _ => Some(h * (cycle / h).round().max(1.0)),
-                },
+                None => Some((frame.time, h)),
+                Some(cycle) => {
+                    let instant = |k: u64| t0 + k as f64 * cycle;
+                    let window_end = frame.time + 0.5 * h;
+                    let first = next_instant[i];
+                    if instant(first) > window_end {
+                        return None;
+                    }
+                    // The first instant after this frame's window.
+                    let mut next = first + 1;
+                    if instant(next) <= window_end {
+                        next = ((window_end - t0) / cycle).floor().max(0.0) as u64 + 1;
+                        while instant(next) <= window_end {
+                            next += 1;
+                        }
+                    }
+                    next_instant[i] = next;
+                    Some((instant(first), instant(next) - instant(first)))
+                }
             })
             .collect();
-        for (i, hi) in steps.iter().enumerate() {
-            if let (Some(hi), Some(_)) = (hi, cycles[i]) {
-                next_due[i] = Some(frame.time + hi);
-            }
-        }
         let results: Vec<Option<Result<StepOutputs>>> = if options.parallel && n > 1 {
             std::thread::scope(|scope| {
                 let handles: Vec<_> = sensors
@@ -207,8 +228,8 @@ where
                     .enumerate()
                     .map(|(i, s)| {
                         let sv = view(i);
-                        let hi = steps[i];
-                        scope.spawn(move || hi.map(|hi| s.step(sv, frame.time, hi)))
+                        let step = steps[i];
+                        scope.spawn(move || step.map(|(ti, hi)| s.step(sv, ti, hi)))
                     })
                     .collect();
                 handles
@@ -220,13 +241,13 @@ where
             sensors
                 .iter_mut()
                 .enumerate()
-                .map(|(i, s)| steps[i].map(|hi| s.step(view(i), frame.time, hi)))
+                .map(|(i, s)| steps[i].map(|(ti, hi)| s.step(view(i), ti, hi)))
                 .collect()
         };
 
         for (sensor_index, result) in results.into_iter().enumerate() {
             let Some(result) = result else { continue };
-            let hi = steps[sensor_index].unwrap_or(h);
+            let (ti, hi) = steps[sensor_index].unwrap_or((frame.time, h));
             let outputs = result.map_err(|e| MasterError::Sensor {
                 frame_index,
                 sensor_index,
@@ -240,8 +261,10 @@ where
                 frame_index,
                 sensor_index,
                 sensor_name: sensors[sensor_index].name(),
-                time: frame.time,
+                time: ti,
                 step_size: hi,
+                frame_time: frame.time,
+                sensor_view: view(sensor_index),
                 outputs: &outputs,
             };
             sink(record).map_err(|e| MasterError::Sink {
@@ -323,6 +346,62 @@ pub fn sensor_view_trace_frames<R: Read>(
             osiris_proto::timestamp_to_seconds(&ts),
             bytes,
         )))
+    })
+}
+
+/// The time of an encoded SensorView: its `timestamp`, else its ground truth's (`None`: neither).
+fn sensor_view_time(bytes: &[u8]) -> std::result::Result<Option<f64>, prost::DecodeError> {
+    let v = <SensorViewTimestamp as prost::Message>::decode(bytes)?;
+    Ok(v.timestamp
+        .or(v.global_ground_truth.and_then(|g| g.timestamp))
+        .map(|ts| osiris_proto::timestamp_to_seconds(&ts)))
+}
+
+/// Frames from channel `channel_id` (SensorView messages) of a `.mcap` trace: one [`Frame::shared`] per
+/// message at the SensorView's `timestamp` (or its ground truth's; without either, the message's
+/// `publish_time`).
+pub fn mcap_sensor_view_frames(
+    reader: &crate::trace::mcap::McapTraceReader,
+    channel_id: u16,
+) -> std::result::Result<
+    impl Iterator<Item = std::result::Result<Frame, TraceError>> + use<>,
+    TraceError,
+> {
+    let file = reader.path().display().to_string();
+    let topic = reader
+        .channels()
+        .iter()
+        .find(|c| c.id == channel_id)
+        .map_or_else(|| channel_id.to_string(), |c| c.topic.clone());
+    let mut index = 0u64;
+    Ok(reader.messages(channel_id)?.map(move |m| {
+        let m = m?;
+        let i = index;
+        index += 1;
+        let time = sensor_view_time(&m.data).map_err(|e| TraceError::InvalidMcap {
+            file: file.clone(),
+            reason: format!("channel `{topic}`, message {i}: cannot decode the SensorView: {e}"),
+        })?;
+        Ok(Frame::shared(
+            time.unwrap_or(m.publish_time as f64 * 1e-9),
+            m.data,
+        ))
+    }))
+}
+
+/// Frames from an initialized OSMP source: frame `k` is the SensorView the source publishes after
+/// `fmi2DoStep(start + k·step, step)`, at time `start + (k + 1)·step`, fed to every sensor (an empty
+/// buffer when the source published none); `frames` frames in all.
+pub fn source_frames(
+    source: &mut OsmpSource,
+    start: f64,
+    step: f64,
+    frames: usize,
+) -> impl Iterator<Item = Result<Frame>> + '_ {
+    (0..frames).map(move |k| {
+        let t = start + k as f64 * step;
+        let view = source.step(t, step)?.unwrap_or_default();
+        Ok(Frame::shared(start + (k + 1) as f64 * step, view))
     })
 }
 

@@ -13,9 +13,10 @@
 //!   `logger.c`), and a `Drop` that terminates and frees.
 //! * [`OsmpSensor`] (`osmp.rs`): an OSMP sensor model on top of an instance: parameters, the
 //!   SensorViewConfiguration handshake, and `step(sensor_view_bytes, t, h)` returning copies of the
-//!   SensorData / PerceptionData buffers.
+//!   SensorData / PerceptionData buffers; [`OsmpSource`]: an OSMP source model (`OSMPSensorViewOut`).
 //! * [`run`] (`cosim.rs`): steps several sensors in one process over a sequence of [`Frame`]s and hands each
-//!   output to a sink; [`sensor_view_trace_frames`] turns a SensorView `.osi` trace into frames.
+//!   output to a sink; [`sensor_view_trace_frames`] and [`mcap_sensor_view_frames`] turn a SensorView
+//!   `.osi` trace or `.mcap` channel into frames, [`source_frames`] steps an [`OsmpSource`] into frames.
 //! * [`locate_fmu_library`] (`locate.rs`): finds (building it with cargo when needed) an osiris FMU cdylib
 //!   of the current profile.
 //!
@@ -42,7 +43,10 @@ mod osmp;
 
 use std::path::PathBuf;
 
-pub use cosim::{Frame, RunOptions, RunSummary, StepRecord, run, sensor_view_trace_frames};
+pub use cosim::{
+    Frame, RunOptions, RunSummary, StepRecord, mcap_sensor_view_frames, run,
+    sensor_view_trace_frames, source_frames,
+};
 pub use instance::{Fmi2Status, Instance, InstanceOptions, InstanceState, LogCallback, LogRecord};
 pub use library::{Fmi2CallbackFunctions, Fmi2Component, Fmi2Functions, Fmu};
 pub use locate::{
@@ -54,8 +58,9 @@ pub use model_description::{
     OsmpMarker, ScalarVariable, Value, VarType, Variability, mime_base, mime_parameter,
 };
 pub use osmp::{
-    OsmpSensor, PERCEPTION_DATA_OUT, SENSOR_DATA_OUT, SENSOR_VIEW_IN, SENSOR_VIEW_IN_CONFIG,
-    SENSOR_VIEW_IN_CONFIG_REQUEST, StepOutputs, decode_pointer, encode_pointer,
+    OsmpSensor, OsmpSource, PERCEPTION_DATA_OUT, SENSOR_DATA_OUT, SENSOR_VIEW_IN,
+    SENSOR_VIEW_IN_CONFIG, SENSOR_VIEW_IN_CONFIG_REQUEST, SENSOR_VIEW_OUT, StepOutputs,
+    decode_pointer, encode_pointer,
 };
 
 /// Boxed error from a user callback (config grant, frame source, output sink).

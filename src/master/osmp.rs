@@ -1,4 +1,5 @@
-//! [`OsmpSensor`]: an OSMP sensor model (SensorView → SensorData) driven through an [`Instance`].
+//! [`OsmpSensor`]: an OSMP sensor model (SensorView → SensorData) driven through an [`Instance`];
+//! [`OsmpSource`]: an OSMP source model (→ SensorView, e.g. a scenario player or `OSMPDummySource`).
 
 use osiris_proto::osi3;
 use prost::Message;
@@ -10,6 +11,8 @@ use super::{
 
 /// Prefix of the SensorView input (`OSMPSensorViewIn[1]` is accepted too).
 pub const SENSOR_VIEW_IN: &str = "OSMPSensorViewIn";
+/// Prefix of a source model's SensorView output (`OSMPSensorViewOut[1]` is accepted too).
+pub const SENSOR_VIEW_OUT: &str = "OSMPSensorViewOut";
 /// Prefix of the SensorData output.
 pub const SENSOR_DATA_OUT: &str = "OSMPSensorDataOut";
 /// Prefix of the SensorViewConfiguration request (calculatedParameter).
@@ -383,6 +386,151 @@ impl OsmpSensor {
             state: format!("{:?}", self.instance.state()),
             expected,
         }
+    }
+}
+
+/// An OSMP source model instance: an FMU with the output `OSMPSensorViewOut` (MIME type
+/// `type=SensorView`), stepped by the master to produce the SensorViews it feeds to the sensors.
+///
+/// Lifecycle: [`OsmpSource::instantiate`] → [`OsmpSource::initialize`] → [`OsmpSource::step`] per
+/// communication point → drop. After `fmi2DoStep(t, h)` the output is the SensorView at `t + h`.
+#[derive(Debug)]
+pub struct OsmpSource {
+    instance: Instance,
+    sensor_view_out: BinaryVariable,
+}
+
+impl OsmpSource {
+    /// Instantiates `fmu` (checked first: OSMP marker, an `OSMPSensorViewOut` output of SensorViews).
+    pub fn instantiate(fmu: &Fmu, name: &str, options: InstanceOptions) -> Result<OsmpSource> {
+        let sensor_view_out = Self::find_output(fmu.model_description())?;
+        Ok(OsmpSource {
+            instance: fmu.instantiate(name, options)?,
+            sensor_view_out,
+        })
+    }
+
+    fn find_output(md: &super::ModelDescription) -> Result<BinaryVariable> {
+        let not_source = |reason: String| MasterError::NotOsmpSensor {
+            model: md.model_name.clone(),
+            reason: format!("not a usable OSMP source: {reason}"),
+        };
+        if md.osmp.is_none() {
+            return Err(not_source(
+                "no OSMP marker (<VendorAnnotations><Tool name=\"net.pmsf.osmp\"><osmp:osmp …/>)"
+                    .to_owned(),
+            ));
+        }
+        let b = md
+            .binary_variable(SENSOR_VIEW_OUT)
+            .or_else(|| md.binary_variable(&format!("{SENSOR_VIEW_OUT}[1]")))
+            .cloned()
+            .ok_or_else(|| {
+                not_source(format!(
+                    "no binary variable `{SENSOR_VIEW_OUT}` (Integer variables `{SENSOR_VIEW_OUT}.base.lo`, \
+                     `.base.hi`, `.size`)"
+                ))
+            })?;
+        if b.causality != Causality::Output {
+            return Err(not_source(format!(
+                "binary variable `{}` has causality {}, expected output",
+                b.prefix, b.causality
+            )));
+        }
+        if mime_base(&b.mime) != OSI_MIME_BASE || b.mime_parameter("type") != Some("SensorView") {
+            return Err(not_source(format!(
+                "binary variable `{}` has MIME type \"{}\", expected \"{OSI_MIME_BASE}; type=SensorView; …\"",
+                b.prefix, b.mime
+            )));
+        }
+        Ok(b)
+    }
+
+    /// The instance name.
+    pub fn name(&self) -> &str {
+        self.instance.name()
+    }
+
+    /// The underlying instance.
+    pub fn instance(&self) -> &Instance {
+        &self.instance
+    }
+
+    /// The SensorView output in use.
+    pub fn binary_variable(&self) -> &BinaryVariable {
+        &self.sensor_view_out
+    }
+
+    /// `DefaultExperiment/@stepSize`, if declared.
+    pub fn default_step_size(&self) -> Option<f64> {
+        self.instance
+            .model_description()
+            .default_experiment
+            .and_then(|d| d.step_size)
+    }
+
+    /// Sets `params` (by name), `fmi2SetupExperiment(start_time)`, enters and exits initialization mode.
+    pub fn initialize(&mut self, start_time: f64, params: &[(&str, Value)]) -> Result<()> {
+        if self.instance.state() != InstanceState::Instantiated {
+            return Err(MasterError::IllegalState {
+                instance: self.name().to_owned(),
+                action: "initialize",
+                state: format!("{:?}", self.instance.state()),
+                expected: "Instantiated (initialize once after instantiation or reset)",
+            });
+        }
+        for (name, value) in params {
+            self.instance.set(name, value.clone())?;
+        }
+        self.instance.setup_experiment(None, start_time, None)?;
+        self.instance.enter_initialization_mode()?;
+        self.instance.exit_initialization_mode()?;
+        Ok(())
+    }
+
+    /// `fmi2DoStep(t, h)`, then a copy of the published SensorView (`None`: no buffer).
+    pub fn step(&mut self, t: f64, h: f64) -> Result<Option<Vec<u8>>> {
+        if self.instance.state() != InstanceState::Initialized {
+            return Err(MasterError::IllegalState {
+                instance: self.name().to_owned(),
+                action: "step",
+                state: format!("{:?}", self.instance.state()),
+                expected: "Initialized (call initialize first)",
+            });
+        }
+        self.instance.do_step(t, h, true)?;
+        let b = self.sensor_view_out.clone();
+        let mut v = [0i32; 3];
+        self.instance.get_integer(&b.vrs(), &mut v)?;
+        let [lo, hi, size] = v;
+        if size < 0 {
+            return Err(MasterError::Osmp {
+                instance: self.name().to_owned(),
+                prefix: b.prefix,
+                reason: format!("negative size {size}"),
+            });
+        }
+        let addr = decode_pointer(lo, hi);
+        if addr == 0 || size == 0 {
+            return Ok(None);
+        }
+        let Ok(addr) = usize::try_from(addr) else {
+            return Err(MasterError::Osmp {
+                instance: self.name().to_owned(),
+                prefix: b.prefix,
+                reason: format!("address {addr:#x} does not fit this platform"),
+            });
+        };
+        // SAFETY: OSMP contract: the FMU published `size` readable bytes at `addr`, valid until the
+        // second DoStep after this one; we copy them now.
+        Ok(Some(
+            unsafe { std::slice::from_raw_parts(addr as *const u8, size as usize) }.to_vec(),
+        ))
+    }
+
+    /// `fmi2Terminate` (dropping does it too).
+    pub fn terminate(&mut self) -> Result<()> {
+        self.instance.terminate().map(|_| ())
     }
 }
 
