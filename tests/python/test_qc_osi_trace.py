@@ -78,3 +78,12 @@ def test_sensor_data_traces_have_no_issues(default_run, sensor, tmp_path):
     trace = default_run.traces("sd")[sensor]
     issues = check(trace, "SensorData", tmp_path)
     assert issues == [], f"{len(issues)} issues, first: {issues[:5]}"
+
+
+@pytest.mark.parametrize("sensor", ["front-camera", "front-radar", "front-lidar"])
+def test_recorded_sensor_view_traces_have_no_issues(default_run, sensor, tmp_path):
+    """The SensorViews the run fed each sensor (the built-in scenario's output) follow the OSI
+    rules too, e.g. the pedestrian's `pedestrian_attributes`."""
+    trace = default_run.traces("sv")[sensor]
+    issues = check(trace, "SensorView", tmp_path)
+    assert issues == [], f"{len(issues)} issues, first: {issues[:5]}"
