@@ -438,7 +438,17 @@ fn scenario_source_follows_osmp_source_rules() {
     assert_eq!(svs.len(), SOURCE_VARIABLES.len());
     // (name, type, VR, causality, variability, initial, start): the OSMP names of a SensorView
     // source; the output VRs are those of the official OSMPDummySource.
-    let table: Vec<(&str, &str, &str, &str, &str, Option<&str>, Option<&str>)> = svs
+    /// (name, type, VR, causality, variability, initial, start).
+    type Row<'a> = (
+        &'a str,
+        &'a str,
+        &'a str,
+        &'a str,
+        &'a str,
+        Option<&'a str>,
+        Option<&'a str>,
+    );
+    let table: Vec<Row> = svs
         .iter()
         .map(|sv| {
             let ty = sv

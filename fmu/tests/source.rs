@@ -263,7 +263,9 @@ fn bad_parameters_are_errors_naming_the_parameter() {
     )
     .unwrap();
     let missing_trace = dir.path().join("nowhere").join("views.osi");
-    let cases: Vec<(&str, Vec<(u32, String)>, Vec<&str>)> = vec![
+    /// (what, the String parameters set, the texts the error must hold).
+    type Case<'a> = (&'a str, Vec<(u32, String)>, Vec<&'a str>);
+    let cases: Vec<Case> = vec![
         (
             "missing trace",
             vec![(svr::string::TRACE_PATH, missing_trace.display().to_string())],

@@ -90,20 +90,20 @@ pub struct PlayedView<'a> {
 
 /// A stream of SensorViews over time (see the module documentation).
 pub enum Player {
-    Scenario(ScenarioPlayer),
-    Trace(TracePlayer),
+    Scenario(Box<ScenarioPlayer>),
+    Trace(Box<TracePlayer>),
 }
 
 impl Player {
     /// Play `config` for its sensor `sensor` (`None`: the first of `config.sensors`).
     pub fn scenario(config: ScenarioConfig, sensor: Option<&str>) -> Result<Player, PlayerError> {
-        ScenarioPlayer::new(config, sensor).map(Player::Scenario)
+        ScenarioPlayer::new(config, sensor).map(|p| Player::Scenario(Box::new(p)))
     }
 
     /// Play the SensorView trace at `path` (format by extension, [`TRACE_EXTENSIONS`]). Frames that
     /// are skipped while looking for the first usable one are described in `notes`.
     pub fn trace(path: &Path, notes: &mut Vec<String>) -> Result<Player, PlayerError> {
-        TracePlayer::open(path, notes).map(Player::Trace)
+        TracePlayer::open(path, notes).map(|p| Player::Trace(Box::new(p)))
     }
 
     /// The view at `t` s (see the module documentation); `Ok(None)` outside the recording. Skipped
