@@ -119,7 +119,7 @@ pub enum BenchWhat {
 pub enum Command {
     /// Package the FMUs if needed, step them over a scenario and write traces and a summary.
     Run(RunArgs),
-    /// Build camera.fmu, radar.fmu and lidar.fmu.
+    /// Build camera.fmu, radar.fmu, lidar.fmu (see --sensors) and scenario.fmu.
     Package {
         /// Output folder.
         #[arg(long, value_name = "DIR")]

@@ -1,11 +1,13 @@
-//! `osiris package`: builds `camera.fmu`, `radar.fmu` and `lidar.fmu`.
+//! `osiris package`: builds `camera.fmu`, `radar.fmu`, `lidar.fmu` (the selected sensors) and
+//! `scenario.fmu` (the scenario player, an OSMP SensorView source; always written).
 //!
 //! An FMU is a zip archive (FMI 2.0 §2.3) holding
 //! * `modelDescription.xml`: rendered from the shell's variable table (identical to the checked-in
-//!   `modelDescription/<sensor>.xml`; a test fails if they drift),
-//! * `binaries/linux64/<modelIdentifier>.so`: the sensor's cdylib (`fmu/<sensor>/`),
-//! * `resources/config.json`: the sensor's built-in configuration (the default of the `config`
-//!   parameter),
+//!   `modelDescription/<name>.xml`; a test fails if they drift),
+//! * `binaries/linux64/<modelIdentifier>.so`: the FMU's cdylib (`fmu/<name>/`),
+//! * `resources/`: a sensor's `config.json` (its built-in configuration, the default of the
+//!   `config` parameter), the scenario player's `scenario.json` (the built-in scenario, the default
+//!   of the `scenario` parameter),
 //! * `documentation/index.html` and `documentation/externalDependencies.txt`.
 //!
 //! Entries are deflated with default options (zip version 2.0, no zip64, no data descriptors), as FMI
@@ -75,7 +77,13 @@ pub fn default_fmu_dir() -> PathBuf {
 
 /// Cargo package name of a sensor's FMU crate.
 pub fn fmu_crate(kind: SensorKind) -> String {
-    format!("osiris-{}-fmu", kind.name())
+    fmu_crate_named(kind.name())
+}
+
+/// Cargo package name of an FMU crate by the FMU's short name ([`FmuDescriptor::name`]:
+/// `radar`, `scenario`).
+pub fn fmu_crate_named(name: &str) -> String {
+    format!("osiris-{name}-fmu")
 }
 
 /// The compiled library of a sensor FMU: from `lib_dir` when given, else located (and built with
@@ -86,15 +94,23 @@ pub fn fmu_library(
     lib_dir: Option<&Path>,
     profile: Option<&str>,
 ) -> Result<PathBuf, PackageError> {
+    fmu_library_named(kind.name(), lib_dir, profile)
+}
+
+/// [`fmu_library`] by the FMU's short name ([`FmuDescriptor::name`]: `radar`, `scenario`).
+pub fn fmu_library_named(
+    name: &str,
+    lib_dir: Option<&Path>,
+    profile: Option<&str>,
+) -> Result<PathBuf, PackageError> {
     match lib_dir {
-        Some(dir) => Ok(dir.join(fmu_library_file_name(kind.name()))),
+        Some(dir) => Ok(dir.join(fmu_library_file_name(name))),
         None => {
             let opts = LocateOptions {
                 profile: profile.map(str::to_owned),
                 ..LocateOptions::default()
             };
-            locate_fmu_library_with(kind.name(), &opts)
-                .map_err(|e| PackageError::Build(e.to_string()))
+            locate_fmu_library_with(name, &opts).map_err(|e| PackageError::Build(e.to_string()))
         }
     }
 }
@@ -104,11 +120,11 @@ pub fn fmu_library(
 pub struct PackageOptions {
     /// Output folder for the `.fmu` files.
     pub out_dir: PathBuf,
-    /// Folder with prebuilt `libosiris_<sensor>.so`; `None` builds them with cargo first.
+    /// Folder with prebuilt `libosiris_<name>.so`; `None` builds them with cargo first.
     pub lib_dir: Option<PathBuf>,
     /// Cargo profile used when building (`dev`, `release`; `None`: the profile of this executable).
     pub profile: Option<String>,
-    /// Sensors to package.
+    /// Sensors to package (`scenario.fmu` is always packaged too).
     pub sensors: Vec<SensorKind>,
 }
 
@@ -123,14 +139,27 @@ impl Default for PackageOptions {
     }
 }
 
-/// Build (if needed) and package the FMUs; returns the paths of the written `.fmu` files.
+/// The descriptors `opts` packages: the selected sensors, then the scenario player.
+pub fn descriptors(opts: &PackageOptions) -> Vec<&'static FmuDescriptor> {
+    opts.sensors
+        .iter()
+        .map(|&kind| osiris_fmu::sensors::descriptor(kind))
+        .chain([&osiris_fmu::sources::scenario::DESCRIPTOR])
+        .collect()
+}
+
+/// Build (if needed) and package the FMUs; returns the paths of the written `.fmu` files (the
+/// sensors in `opts.sensors` order, then `scenario.fmu`).
 pub fn package(opts: &PackageOptions) -> Result<Vec<PathBuf>, PackageError> {
     std::fs::create_dir_all(&opts.out_dir).map_err(io_err(&opts.out_dir))?;
     let mut written = Vec::new();
-    for &kind in &opts.sensors {
-        let descriptor = osiris_fmu::sensors::descriptor(kind);
-        let lib = fmu_library(kind, opts.lib_dir.as_deref(), opts.profile.as_deref())?;
-        let out = opts.out_dir.join(format!("{}.fmu", kind.name()));
+    for descriptor in descriptors(opts) {
+        let lib = fmu_library_named(
+            descriptor.name(),
+            opts.lib_dir.as_deref(),
+            opts.profile.as_deref(),
+        )?;
+        let out = opts.out_dir.join(format!("{}.fmu", descriptor.name()));
         write_fmu(descriptor, &lib, &out)?;
         written.push(out);
     }
@@ -155,13 +184,12 @@ pub fn write_fmu(descriptor: &FmuDescriptor, lib: &Path, out: &Path) -> Result<(
             path: lib.to_path_buf(),
             hint: format!(
                 "build it with `cargo build --release -p {}` or run `osiris package` without --lib-dir",
-                fmu_crate(descriptor.kind)
+                fmu_crate_named(descriptor.name())
             ),
         });
     }
     let so = std::fs::read(lib).map_err(io_err(lib))?;
     let xml = osiris_fmu::model_description::render(descriptor);
-    let config = osiris_fmu::sensors::default_config_json(descriptor.kind);
     let docs = documentation_html(descriptor);
 
     let tmp = out.with_extension("fmu.partial");
@@ -183,7 +211,9 @@ pub fn write_fmu(descriptor: &FmuDescriptor, lib: &Path, out: &Path) -> Result<(
         &so,
         0o755,
     )?;
-    add("resources/config.json", config.as_bytes(), 0o644)?;
+    for (name, content) in descriptor.resource_files() {
+        add(&format!("resources/{name}"), content.as_bytes(), 0o644)?;
+    }
     add("documentation/index.html", docs.as_bytes(), 0o644)?;
     add(
         "documentation/externalDependencies.txt",
@@ -238,6 +268,9 @@ pub fn documentation_html(descriptor: &FmuDescriptor) -> String {
             ));
         }
     }
+    if descriptor.is_source() {
+        return source_documentation_html(descriptor, &rows);
+    }
     format!(
         "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{name}</title></head><body>\n\
 <h1>{name}</h1>\n<p>{desc}</p>\n\
@@ -258,5 +291,32 @@ range, occluded by other objects' boxes, transformed into the sensor frame).</p>
         name = html_escape(descriptor.model_name),
         desc = html_escape(descriptor.description),
         pmime = html_escape(osiris_proto::MIME_PERCEPTION_DATA),
+    )
+}
+
+/// `documentation/index.html` of a SensorView source (the scenario player).
+fn source_documentation_html(descriptor: &FmuDescriptor, rows: &str) -> String {
+    format!(
+        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{name}</title></head><body>\n\
+<h1>{name}</h1>\n<p>{desc}</p>\n\
+<h2>Interface</h2>\n<p>OSMP 1.6.0 SensorView source (OSI 3.8.0): no inputs; writes \
+<code>osi3.SensorView</code> to <code>OSMPSensorViewOut</code> (double-buffered: valid until the start of \
+the second <code>fmi2DoStep</code> after the one that produced it). <code>fmi2ExitInitializationMode</code> \
+publishes the view at the start time, <code>fmi2DoStep(t, h)</code> the view at <code>t + h</code>, so a \
+sensor FMU stepped at <code>t</code> with the current output sees the world at <code>t</code>. To drive a \
+sensor, copy the three Integers of <code>OSMPSensorViewOut</code> to its <code>OSMPSensorViewIn</code> \
+before each of its steps. <code>valid</code> is false (and the triple 0/0/0) outside the recording.</p>\n\
+<h2>Parameters</h2>\n<p><code>scenario</code> names a scenario JSON in <code>resources/</code> (default \
+<code>scenario.json</code>, the built-in scenario) or an absolute path, holds inline JSON, or is empty for \
+the built-in scenario; the FMI time is the scenario's own time. <code>sensor</code> names the scenario's \
+sensor mount whose view is played (empty: the first); every view carries the global ground truth and \
+that mount. <code>trace_path</code> plays a SensorView trace (<code>.osi</code>) instead, byte for byte, \
+each message from its timestamp (relative to the first message, which plays at t = 0) to the next. A bad \
+parameter (missing file, bad JSON, unknown sensor) fails initialization with <code>fmi2Error</code> \
+naming it.</p>\n\
+<h2>Variables</h2>\n<table border=\"1\"><tr><th>name</th><th>type</th><th>vr</th><th>causality</th>\
+<th>variability</th><th>start</th><th>description</th></tr>\n{rows}</table>\n</body></html>\n",
+        name = html_escape(descriptor.model_name),
+        desc = html_escape(descriptor.description),
     )
 }

@@ -16,7 +16,7 @@ use osiris::trace::{OsiTraceReader, OsiTraceWriter, parse_trace_file_name, read_
 use osiris_models::SensorKind;
 use osiris_proto::{Message, osi3, perception};
 
-/// The three FMUs, packaged once per test process (libraries of the test profile, built if needed)
+/// The three sensor FMUs and scenario.fmu, packaged once per test process (libraries of the test profile, built if needed)
 /// into cargo's per-target scratch folder, which the next run overwrites (a static temporary folder
 /// would never be removed: statics are not dropped).
 fn fmu_dir() -> &'static Path {
@@ -28,7 +28,8 @@ fn fmu_dir() -> &'static Path {
             ..PackageOptions::default()
         };
         let written = package(&opts).unwrap_or_else(|e| panic!("packaging failed: {e}"));
-        assert_eq!(written.len(), 3);
+        assert_eq!(written.len(), 4);
+        assert!(written[3].ends_with("scenario.fmu"), "{written:?}");
         dir
     })
 }
@@ -154,6 +155,42 @@ fn fmu_archives_follow_the_fmi_layout() {
         let parsed = osiris_models::SensorConfig::from_json_str(&cfg).unwrap();
         assert_eq!(parsed, osiris_models::SensorConfig::default_for(kind));
     }
+}
+
+#[test]
+fn scenario_fmu_archive_holds_the_player_and_the_built_in_scenario() {
+    let path = fmu_dir().join("scenario.fmu");
+    let mut zip = zip::ZipArchive::new(std::fs::File::open(&path).unwrap()).unwrap();
+    let names: BTreeSet<&str> = zip.file_names().collect();
+    assert_eq!(
+        names,
+        [
+            "modelDescription.xml",
+            "binaries/linux64/osiris_scenario.so",
+            "resources/scenario.json",
+            "documentation/index.html",
+            "documentation/externalDependencies.txt",
+        ]
+        .into()
+    );
+    let mut read = |name: &str| {
+        let mut text = String::new();
+        zip.by_name(name)
+            .unwrap()
+            .read_to_string(&mut text)
+            .unwrap();
+        text
+    };
+    let checked_in = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("modelDescription/scenario.xml"),
+    )
+    .unwrap();
+    assert_eq!(read("modelDescription.xml"), checked_in);
+    assert_eq!(
+        ScenarioConfig::from_json_str(&read("resources/scenario.json")).unwrap(),
+        ScenarioConfig::default()
+    );
+    assert!(read("documentation/index.html").contains("SensorView source"));
 }
 
 #[test]

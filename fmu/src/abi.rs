@@ -391,8 +391,9 @@ pub unsafe fn enter_initialization_mode(c: Fmi2Component) -> Fmi2Status {
     })
 }
 
-/// `fmi2ExitInitializationMode`: builds the model if needed and applies the granted
-/// `OSMPSensorViewInConfig` (notes are logged as warnings and give `fmi2Warning`).
+/// `fmi2ExitInitializationMode`: a sensor builds its model if needed and applies the granted
+/// `OSMPSensorViewInConfig` (notes are logged as warnings and give `fmi2Warning`); a source builds
+/// its source if needed and publishes the view at the start time.
 ///
 /// # Safety
 /// See the module docs.
@@ -435,7 +436,7 @@ macro_rules! get_set_arrays {
     }};
 }
 
-/// `fmi2GetReal`: the Real parameters (set value, else start value).
+/// `fmi2GetReal`: the Real parameters of a sensor (set value, else start value); a source has none.
 ///
 /// # Safety
 /// See the module docs.
@@ -451,7 +452,8 @@ pub unsafe fn get_real(
     })
 }
 
-/// `fmi2GetInteger`: OSMP triples and `count`. Reading the ConfigRequest computes it (once).
+/// `fmi2GetInteger`: OSMP triples and `count`. Reading a sensor's ConfigRequest computes it (once);
+/// reading a source's outputs during initialization computes its view at the start time.
 ///
 /// # Safety
 /// See the module docs.
@@ -483,8 +485,9 @@ pub unsafe fn get_boolean(
     })
 }
 
-/// `fmi2GetString`: `config`, `mode` (set value, else start value). The returned pointers stay
-/// valid until the next `fmi2GetString` on this instance.
+/// `fmi2GetString`: the String parameters (a sensor's `config`, `mode`; a source's `scenario`,
+/// `trace_path`, `sensor`), set value, else start value. The returned pointers stay valid until the
+/// next `fmi2GetString` on this instance.
 ///
 /// # Safety
 /// See the module docs.
@@ -524,8 +527,9 @@ pub unsafe fn set_real(
     })
 }
 
-/// `fmi2SetInteger`: the `OSMPSensorViewIn` triple (any time after instantiation) and the
-/// `OSMPSensorViewInConfig` triple (before `fmi2ExitInitializationMode`).
+/// `fmi2SetInteger`: a sensor's `OSMPSensorViewIn` triple (any time after instantiation) and
+/// `OSMPSensorViewInConfig` triple (before `fmi2ExitInitializationMode`); a source has no settable
+/// Integer.
 ///
 /// # Safety
 /// See the module docs.
@@ -557,7 +561,7 @@ pub unsafe fn set_boolean(
     })
 }
 
-/// `fmi2SetString`: `config`, `mode` (copied; before `fmi2ExitInitializationMode`).
+/// `fmi2SetString`: the String parameters (copied; before `fmi2ExitInitializationMode`).
 ///
 /// # Safety
 /// See the module docs.
@@ -730,9 +734,11 @@ pub unsafe fn get_real_output_derivatives(
     )
 }
 
-/// `fmi2DoStep`: decode the SensorView, run the model, publish SensorData and PerceptionData
-/// (double-buffered). No input (address 0 or size ≤ 0): `fmi2OK` with 0/0/0 outputs and
-/// `valid = false`. Malformed input or a model input error: `fmi2Warning`, frame skipped.
+/// `fmi2DoStep`: a sensor decodes the SensorView, runs the model, publishes SensorData and
+/// PerceptionData (double-buffered). No input (address 0 or size ≤ 0): `fmi2OK` with 0/0/0 outputs
+/// and `valid = false`. Malformed input or a model input error: `fmi2Warning`, frame skipped. A
+/// source publishes its SensorView at `t + h` (double-buffered; 0/0/0 and `valid = false` outside
+/// its recording).
 ///
 /// # Safety
 /// See the module docs; the `OSMPSensorViewIn` buffer must be valid (OSMP).

@@ -2,6 +2,11 @@
 //! OSMP buffers. Everything here is safe Rust over slices; [`crate::abi`] does the pointer work,
 //! the panic guard and the NULL checks.
 //!
+//! The state machine, logging, status queries and the variable checks (against the descriptor's
+//! table) serve both roles of [`crate::descriptor::Role`]; this file holds the sensor's parameters,
+//! model and step, [`source`] the SensorView source's. The role-specific calls branch at their top
+//! (`if self.desc.is_source()`).
+//!
 //! Error policy:
 //! * a rejected call (wrong state, unknown value reference, a variable that cannot be set now,
 //!   unsupported function) returns `fmi2Error`, logs the reason naming the function and the state,
@@ -18,7 +23,7 @@ use std::path::{Path, PathBuf};
 use osiris_models::{ModelError, ModelMode, SensorConfig, SensorModel, StepInput, StepOutput};
 use osiris_proto::{Message, osi3};
 
-use crate::descriptor::FmuDescriptor;
+use crate::descriptor::{FmuDescriptor, SensorRole};
 use crate::ffi::{self, Fmi2Status};
 use crate::logging::{CategorySet, LogCategory, Logger};
 use crate::osmp;
@@ -59,11 +64,13 @@ impl State {
 
 use State::*;
 
+mod source;
+
 /// Input findings logged one per line per step; the rest are counted in one line (a frame with
 /// 10⁵ broken objects must not flood the importer's log).
 const MAX_INPUT_ISSUES_LOGGED: usize = 16;
 
-/// Values the importer sets (all back to their start values on `fmi2Reset`).
+/// Values the importer sets on a sensor (all back to their start values on `fmi2Reset`).
 #[derive(Debug, Default, Clone, PartialEq)]
 struct Params {
     /// `range_m`, `fov_horizontal_rad`, `fov_vertical_rad`: `Some` once explicitly set.
@@ -102,6 +109,16 @@ impl DoubleBuffer {
         buf.clear();
         msg.encode(buf)
             .map_err(|e| format!("encoding failed: {e}"))?;
+        self.published = osmp::publish(buf)?;
+        self.next ^= 1;
+        Ok(())
+    }
+
+    /// Copy `bytes` into the spare buffer and publish it.
+    fn publish_bytes(&mut self, bytes: &[u8]) -> Result<(), String> {
+        let buf = &mut self.bufs[self.next];
+        buf.clear();
+        buf.extend_from_slice(bytes);
         self.published = osmp::publish(buf)?;
         self.next ^= 1;
         Ok(())
@@ -170,8 +187,11 @@ pub(crate) struct Instance {
     pub(crate) state: State,
     /// Set after an internal panic.
     pub(crate) broken: bool,
+    /// A sensor's parameters (unused by a source).
     p: Params,
     rt: Runtime,
+    /// A source's parameters, source and output (unused by a sensor).
+    src: source::SourceIo,
     /// Results of the last `fmi2GetString`, valid until the next one.
     strings: Vec<CString>,
 }
@@ -201,8 +221,16 @@ impl Instance {
             broken: false,
             p: Params::default(),
             rt: Runtime::new(),
+            src: source::SourceIo::default(),
             strings: Vec::new(),
         }
+    }
+
+    /// The sensor model of a sensor FMU (the sensor-only paths are reached only for sensors).
+    fn sensor_role(&self) -> &'static SensorRole {
+        self.desc
+            .as_sensor()
+            .expect("a sensor-only path reached on a source FMU")
     }
 
     // ---------------------------------------------------------------------------------------------
@@ -356,6 +384,9 @@ impl Instance {
         if let Err(s) = self.check_state(F, &[InitializationMode]) {
             return s;
         }
+        if self.desc.is_source() {
+            return self.source_exit_initialization_mode();
+        }
         let mut status = match self.ensure_model() {
             Ok(s) => s,
             Err(msg) => return self.fail(F, LogCategory::Fmi, &msg),
@@ -439,6 +470,7 @@ impl Instance {
         }
         self.p = Params::default();
         self.rt = Runtime::new();
+        self.src = source::SourceIo::default();
         self.strings.clear();
         self.state = Instantiated;
         self.logger.enabled = CategorySet::for_logging_on(self.logging_on_at_instantiate);
@@ -456,7 +488,7 @@ impl Instance {
 
     /// Look a variable up and check that it may be set now.
     fn settable(&self, func: &str, ty: VarType, vr: u32) -> Result<&'static Variable, Fmi2Status> {
-        let Some(v) = variables::find(ty, vr) else {
+        let Some(v) = self.desc.variable(ty, vr) else {
             return Err(self.reject(func, &format!("unknown {} value reference {vr}", ty.name())));
         };
         match v.causality {
@@ -585,6 +617,9 @@ impl Instance {
                 &format!("value {i} (for `{}`) is NULL or not UTF-8", vars[i].name),
             );
         }
+        if self.desc.is_source() {
+            return self.source_set_string(&vars, values);
+        }
         for (v, value) in vars.iter().zip(values) {
             let value = value.clone().expect("checked above");
             self.debug(LogCategory::Fmi, || format!("{F}: {} = {value:?}", v.name));
@@ -609,12 +644,12 @@ impl Instance {
         }
         let mut values = Vec::with_capacity(vrs.len());
         for &r in vrs {
-            let Some(v) = variables::find(VarType::Real, r) else {
+            let Some(v) = self.desc.variable(VarType::Real, r) else {
                 return self.reject(F, &format!("unknown Real value reference {r}"));
             };
             let start = v
                 .start
-                .real(self.desc.kind)
+                .real(self.desc.sensor_kind())
                 .expect("Real parameters have a start");
             values.push(self.p.real[r as usize].unwrap_or(start));
         }
@@ -629,9 +664,12 @@ impl Instance {
         }
         if let Some(&r) = vrs
             .iter()
-            .find(|&&r| variables::find(VarType::Integer, r).is_none())
+            .find(|&&r| self.desc.variable(VarType::Integer, r).is_none())
         {
             return self.reject(F, &format!("unknown Integer value reference {r}"));
+        }
+        if self.desc.is_source() {
+            return self.source_get_integer(vrs, out);
         }
         let mut status = Fmi2Status::Ok;
         let mut request = [0; 3];
@@ -665,9 +703,14 @@ impl Instance {
         }
         if let Some(&r) = vrs
             .iter()
-            .find(|&&r| variables::find(VarType::Boolean, r).is_none())
+            .find(|&&r| self.desc.variable(VarType::Boolean, r).is_none())
         {
             return self.reject(F, &format!("unknown Boolean value reference {r}"));
+        }
+        if self.desc.is_source()
+            && let Err(s) = self.source_ensure_initial_outputs(F)
+        {
+            return s;
         }
         out.fill(if self.rt.valid {
             ffi::FMI2_TRUE
@@ -684,16 +727,20 @@ impl Instance {
         self.check_state(F, &Self::GET_STATES)?;
         let mut values = Vec::with_capacity(vrs.len());
         for &r in vrs {
-            let Some(v) = variables::find(VarType::String, r) else {
+            let Some(v) = self.desc.variable(VarType::String, r) else {
                 return Err(self.reject(F, &format!("unknown String value reference {r}")));
             };
             let start = v
                 .start
-                .string(self.desc.kind)
+                .string(self.desc.sensor_kind())
                 .expect("String parameters have a start");
-            let value = match r {
-                vr::string::CONFIG => self.p.config.as_deref(),
-                _ => self.p.mode.as_deref(),
+            let value = if self.desc.is_source() {
+                self.src.string(r)
+            } else {
+                match r {
+                    vr::string::CONFIG => self.p.config.as_deref(),
+                    _ => self.p.mode.as_deref(),
+                }
             };
             let value = value.unwrap_or(start);
             // Set values were NUL-free C strings.
@@ -728,7 +775,7 @@ impl Instance {
     /// The effective configuration: the `config` JSON (or built-in defaults) with the explicitly
     /// set Real/String parameters applied. Also returns warnings to log.
     fn resolve_config(&self) -> Result<(SensorConfig, Vec<String>, String), String> {
-        let kind = self.desc.kind;
+        let kind = self.sensor_role().kind;
         let mut warnings = Vec::new();
         let text = self.p.config.as_deref().unwrap_or(
             match variables::find(VarType::String, vr::string::CONFIG) {
@@ -838,7 +885,7 @@ impl Instance {
             config.fov_vertical_rad,
             config.update_cycle_s
         );
-        let model = (self.desc.build_model)(config)
+        let model = (self.sensor_role().build_model)(config)
             .map_err(|e| format!("{e} (configuration from {source})"))?;
         self.debug(LogCategory::Fmi, || format!("built the {summary}"));
         self.rt.model = Some(model);
@@ -911,6 +958,9 @@ impl Instance {
                 F,
                 &format!("step [{t}, {}] s goes past stopTime {stop} s", t + h),
             );
+        }
+        if self.desc.is_source() {
+            return self.source_do_step(t, h);
         }
 
         let addr = match osmp::address(self.p.view_in) {

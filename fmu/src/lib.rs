@@ -1,15 +1,20 @@
-//! The FMI 2.0 co-simulation shell shared by every osiris sensor FMU, with OSMP 1.6.0 packaging.
+//! The FMI 2.0 co-simulation shell shared by every osiris FMU, with OSMP 1.6.0 packaging.
 //!
-//! Model code never sees FMI: an instance drives a `Box<dyn osiris_models::SensorModel>` built
-//! from its parameters. This crate is a normal rlib without exported symbols; each cdylib crate
-//! (`fmu/camera`, `fmu/radar`, `fmu/lidar`) invokes [`export_fmi2!`] once to generate the 34
-//! `fmi2*` C entry points over the generic functions of [`abi`].
+//! Model code never sees FMI: an instance of a sensor FMU drives a
+//! `Box<dyn osiris_models::SensorModel>` (SensorView in, SensorData out), an instance of a source
+//! FMU a `Box<dyn ViewSource>` (nothing in, SensorView out), each built from its parameters; the
+//! descriptor's [`descriptor::Role`] says which. This crate is a normal rlib without exported
+//! symbols; each cdylib crate (`fmu/camera`, `fmu/radar`, `fmu/lidar`, `fmu/scenario`) invokes
+//! [`export_fmi2!`] once to generate the 34 `fmi2*` C entry points over the generic functions of
+//! [`abi`].
 //!
 //! * [`abi`]: the 34 functions as `unsafe fn`s over raw C types (callable in-process by tests).
 //! * [`ffi`]: the FMI 2.0 C types.
 //! * [`variables`]: the variable table (value references are a contract, see there).
-//! * [`descriptor`]: [`FmuDescriptor`], what distinguishes one sensor FMU from another.
+//! * [`descriptor`]: [`FmuDescriptor`], what distinguishes one FMU from another (its role: sensor
+//!   or SensorView source).
 //! * [`sensors`]: the camera, radar and LiDAR descriptors.
+//! * [`sources`]: the scenario player's descriptor (`scenario.fmu`).
 //! * [`model_description`]: renders `modelDescription.xml` (deterministic GUID).
 //! * [`logging`]: log categories and the `"%s"`-only logger call.
 //! * [`osmp`]: OSMP address packing.
@@ -22,9 +27,10 @@ pub mod logging;
 pub mod model_description;
 pub mod osmp;
 pub mod sensors;
+pub mod sources;
 pub mod variables;
 
-pub use descriptor::FmuDescriptor;
+pub use descriptor::{FmuDescriptor, Role, ViewSource};
 pub use instance::State;
 
 /// Generate the 34 FMI 2.0 co-simulation exports (`#[unsafe(no_mangle)] extern "C" fn fmi2...`)

@@ -1,4 +1,5 @@
-//! Renders the FMI 2.0 co-simulation `modelDescription.xml` of a sensor FMU (OSMP 1.6.0 packaging).
+//! Renders the FMI 2.0 co-simulation `modelDescription.xml` of an FMU (OSMP 1.6.0 packaging), from
+//! its descriptor and the variable table of its role.
 //!
 //! Element order follows `fmi2ModelDescription.xsd`: CoSimulation, UnitDefinitions, LogCategories,
 //! DefaultExperiment, VendorAnnotations, ModelVariables, ModelStructure. The output is
@@ -11,7 +12,7 @@ use uuid::Uuid;
 
 use crate::descriptor::FmuDescriptor;
 use crate::logging::LogCategory;
-use crate::variables::{Causality, Start, VARIABLES, VarType};
+use crate::variables::{Causality, Initial, Start, VarType};
 
 /// OSMP version declared in the marker annotation.
 pub const OSMP_VERSION: &str = "1.6.0";
@@ -91,9 +92,10 @@ fn render_with_guid(desc: &FmuDescriptor, guid: &str) -> String {
     let _ = writeln!(x, r#"    canSerializeFMUstate="false""#);
     let _ = writeln!(x, r#"    providesDirectionalDerivative="false"/>"#);
 
+    let variables = desc.variables();
     // Units of the Real parameters, in first-use order.
     let mut units: Vec<&str> = Vec::new();
-    for v in VARIABLES.iter() {
+    for v in variables.iter() {
         if let Some(u) = v.unit
             && !units.contains(&u)
         {
@@ -125,9 +127,13 @@ fn render_with_guid(desc: &FmuDescriptor, guid: &str) -> String {
     }
     let _ = writeln!(x, "  </LogCategories>");
 
+    let stop = desc
+        .default_stop_time_s()
+        .map(|t| format!(r#" stopTime="{}""#, xml_double(t)))
+        .unwrap_or_default();
     let _ = writeln!(
         x,
-        r#"  <DefaultExperiment startTime="0" stepSize="{}"/>"#,
+        r#"  <DefaultExperiment startTime="0"{stop} stepSize="{}"/>"#,
         xml_double(desc.default_step_size_s())
     );
 
@@ -140,7 +146,7 @@ fn render_with_guid(desc: &FmuDescriptor, guid: &str) -> String {
     let _ = writeln!(x, "  </VendorAnnotations>");
 
     let _ = writeln!(x, "  <ModelVariables>");
-    for (i, v) in VARIABLES.iter().enumerate() {
+    for (i, v) in variables.iter().enumerate() {
         let _ = writeln!(x, "    <!-- Index {} -->", i + 1);
         let _ = write!(
             x,
@@ -160,11 +166,11 @@ fn render_with_guid(desc: &FmuDescriptor, guid: &str) -> String {
             Start::Integer(i) => format!(r#" start="{i}""#),
             Start::Boolean(b) => format!(r#" start="{b}""#),
             Start::RealDefault(_) => {
-                let value = v.start.real(desc.kind).expect("Real start");
+                let value = v.start.real(desc.sensor_kind()).expect("Real start");
                 format!(r#" start="{}""#, xml_double(value))
             }
             Start::String(_) | Start::ModeDefault => {
-                let value = v.start.string(desc.kind).expect("String start");
+                let value = v.start.string(desc.sensor_kind()).expect("String start");
                 format!(r#" start="{}""#, esc(value))
             }
         };
@@ -191,22 +197,26 @@ fn render_with_guid(desc: &FmuDescriptor, guid: &str) -> String {
 
     let _ = writeln!(x, "  <ModelStructure>");
     let _ = writeln!(x, "    <Outputs>");
-    for (i, v) in VARIABLES.iter().enumerate() {
+    for (i, v) in variables.iter().enumerate() {
         if v.causality == Causality::Output {
             let _ = writeln!(x, r#"      <Unknown index="{}"/>"#, i + 1);
         }
     }
     let _ = writeln!(x, "    </Outputs>");
-    // The ConfigRequest (all calculatedParameters) depends on the Config triple and every Real and
-    // String parameter.
-    let calculated: Vec<usize> = VARIABLES
+    // InitialUnknowns: the calculatedParameters (a sensor's ConfigRequest) and the outputs computed
+    // during initialization (a source's first SensorView). They depend on the Config triple and
+    // every Real and String parameter.
+    let calculated: Vec<usize> = variables
         .iter()
         .enumerate()
-        .filter(|(_, v)| v.causality == Causality::CalculatedParameter)
+        .filter(|(_, v)| {
+            v.causality == Causality::CalculatedParameter
+                || (v.causality == Causality::Output && v.initial == Some(Initial::Calculated))
+        })
         .map(|(i, _)| i + 1)
         .collect();
     if !calculated.is_empty() {
-        let deps: Vec<String> = VARIABLES
+        let deps: Vec<String> = variables
             .iter()
             .enumerate()
             .filter(|(_, v)| {

@@ -1,6 +1,8 @@
-//! The variable table shared by every osiris sensor FMU: the contract importers, the master and
-//! the packaging code work against. The modelDescription.xml is rendered from [`VARIABLES`] and the
-//! ABI checks every get/set against it.
+//! The variable tables: the contract importers, the master and the packaging code work against.
+//! The modelDescription.xml is rendered from the table of the FMU's role
+//! ([`crate::FmuDescriptor::variables`]) and the ABI checks every get/set against it.
+//!
+//! ## Sensor FMUs ([`VARIABLES`], camera, radar, LiDAR)
 //!
 //! | type | VR | name | causality / variability / initial | start |
 //! |---|---|---|---|---|
@@ -16,6 +18,22 @@
 //! | Real | 2 | `fov_vertical_rad` (rad) | parameter / fixed | idem |
 //! | String | 0 | `config` | parameter / fixed | `"config.json"` |
 //! | String | 1 | `mode` | parameter / fixed | the kind's default mode (`SensorConfig::default_for(kind).mode`) |
+//!
+//! ## SensorView source FMUs ([`SOURCE_VARIABLES`], `scenario.fmu`)
+//!
+//! | type | VR | name | causality / variability / initial | start |
+//! |---|---|---|---|---|
+//! | Integer | 0, 1, 2 | `OSMPSensorViewOut.base.lo/.base.hi/.size` | output / discrete / calculated | — |
+//! | Integer | 3 | `count` | output / discrete / calculated | — |
+//! | Boolean | 0 | `valid` | output / discrete / calculated | — |
+//! | String | 0 | `scenario` | parameter / fixed | `"scenario.json"` |
+//! | String | 1 | `trace_path` | parameter / fixed | `""` |
+//! | String | 2 | `sensor` | parameter / fixed | `""` |
+//!
+//! The source's outputs are `calculated`: the view at the start time is published during
+//! initialization (so a sensor stepped at the start time has an input), and they are
+//! InitialUnknowns depending on the three parameters. The VRs of the output triple, `valid` and
+//! `count` are those of the official OSMPDummySource.
 
 use osiris_models::{SensorConfig, SensorKind};
 use osiris_proto::{
@@ -90,6 +108,37 @@ pub mod vr {
         pub const CONFIG: u32 = 0;
         /// `mode`: `ideal` or `physical`.
         pub const MODE: u32 = 1;
+    }
+    /// Value references of the SensorView source FMUs ([`super::super::SOURCE_VARIABLES`]).
+    pub mod source {
+        /// Integer value references.
+        pub mod integer {
+            /// `OSMPSensorViewOut.base.lo`.
+            pub const SENSOR_VIEW_OUT_BASE_LO: u32 = 0;
+            /// `OSMPSensorViewOut.base.hi`.
+            pub const SENSOR_VIEW_OUT_BASE_HI: u32 = 1;
+            /// `OSMPSensorViewOut.size` (bytes).
+            pub const SENSOR_VIEW_OUT_SIZE: u32 = 2;
+            /// `count`: moving objects in the published view's ground truth.
+            pub const COUNT: u32 = 3;
+            /// The triple of `OSMPSensorViewOut`.
+            pub const SENSOR_VIEW_OUT: [u32; 3] = [0, 1, 2];
+        }
+        /// Boolean value references.
+        pub mod boolean {
+            /// `valid`: a SensorView is published.
+            pub const VALID: u32 = 0;
+        }
+        /// String value references.
+        pub mod string {
+            /// `scenario`: scenario JSON file (relative to the resources directory, or absolute),
+            /// inline JSON, or "" for the built-in scenario.
+            pub const SCENARIO: u32 = 0;
+            /// `trace_path`: a SensorView trace to play instead of a scenario.
+            pub const TRACE_PATH: u32 = 1;
+            /// `sensor`: the scenario's sensor mount whose view is played ("": the first).
+            pub const SENSOR: u32 = 2;
+        }
     }
 }
 
@@ -212,19 +261,21 @@ pub enum Start {
 }
 
 impl Start {
-    /// The Real start value for a sensor kind, if this is a Real start.
-    pub fn real(self, kind: SensorKind) -> Option<f64> {
+    /// The Real start value for a sensor kind (`None` for a source FMU), if this is a Real start
+    /// (the kind's defaults need a kind).
+    pub fn real(self, kind: Option<SensorKind>) -> Option<f64> {
         match self {
-            Start::RealDefault(p) => Some(p.get(&SensorConfig::default_for(kind))),
+            Start::RealDefault(p) => Some(p.get(&SensorConfig::default_for(kind?))),
             _ => None,
         }
     }
 
-    /// The String start value for a sensor kind, if this is a String start.
-    pub fn string(self, kind: SensorKind) -> Option<&'static str> {
+    /// The String start value for a sensor kind (`None` for a source FMU), if this is a String
+    /// start (the kind's default mode needs a kind).
+    pub fn string(self, kind: Option<SensorKind>) -> Option<&'static str> {
         match self {
             Start::String(s) => Some(s),
-            Start::ModeDefault => Some(SensorConfig::default_for(kind).mode.name()),
+            Start::ModeDefault => Some(SensorConfig::default_for(kind?).mode.name()),
             _ => None,
         }
     }
@@ -512,12 +563,98 @@ pub static VARIABLES: [Variable; 22] = [
     },
 ];
 
-/// The variable with this base type and value reference.
+const VIEW_OUT: [Variable; 3] = triple!(
+    "OSMPSensorViewOut",
+    0,
+    MIME_SENSOR_VIEW,
+    Causality::Output,
+    Variability::Discrete,
+    Some(Initial::Calculated),
+    Start::None,
+    "Output osi3::SensorView, valid until the start of the second fmi2DoStep after the producing one \
+     (fmi2ExitInitializationMode publishes the view at the start time)"
+);
+
+/// Every variable of a SensorView source FMU, in modelDescription order.
+pub static SOURCE_VARIABLES: [Variable; 8] = [
+    VIEW_OUT[0],
+    VIEW_OUT[1],
+    VIEW_OUT[2],
+    Variable {
+        name: "valid",
+        ty: VarType::Boolean,
+        vr: vr::source::boolean::VALID,
+        causality: Causality::Output,
+        variability: Variability::Discrete,
+        initial: Some(Initial::Calculated),
+        start: Start::None,
+        description: "True when OSMPSensorViewOut holds a SensorView (false outside the scenario's \
+                      [0, duration_s] or after the trace's last message)",
+        unit: None,
+        osmp: None,
+    },
+    Variable {
+        name: "count",
+        ty: VarType::Integer,
+        vr: vr::source::integer::COUNT,
+        causality: Causality::Output,
+        variability: Variability::Discrete,
+        initial: Some(Initial::Calculated),
+        start: Start::None,
+        description: "Number of moving objects (the host included) in the published SensorView's \
+                      global ground truth",
+        unit: None,
+        osmp: None,
+    },
+    Variable {
+        name: "scenario",
+        ty: VarType::String,
+        vr: vr::source::string::SCENARIO,
+        causality: Causality::Parameter,
+        variability: Variability::Fixed,
+        initial: None,
+        start: Start::String("scenario.json"),
+        description: "Scenario to play: a JSON file path relative to the FMU's resources directory \
+                      (or absolute), inline JSON starting with '{', or empty for the built-in \
+                      scenario (which the shipped resources/scenario.json holds)",
+        unit: None,
+        osmp: None,
+    },
+    Variable {
+        name: "trace_path",
+        ty: VarType::String,
+        vr: vr::source::string::TRACE_PATH,
+        causality: Causality::Parameter,
+        variability: Variability::Fixed,
+        initial: None,
+        start: Start::String(""),
+        description: "SensorView trace (.osi) to play instead of a scenario, relative to the \
+                      resources directory or absolute; t = 0 is its first message",
+        unit: None,
+        osmp: None,
+    },
+    Variable {
+        name: "sensor",
+        ty: VarType::String,
+        vr: vr::source::string::SENSOR,
+        causality: Causality::Parameter,
+        variability: Variability::Fixed,
+        initial: None,
+        start: Start::String(""),
+        description: "Name of the scenario's sensor mount whose SensorView is played (empty: the \
+                      first of the scenario's sensors); unused for a trace",
+        unit: None,
+        osmp: None,
+    },
+];
+
+/// The sensor variable with this base type and value reference (the table of one FMU:
+/// [`crate::FmuDescriptor::variable`]).
 pub fn find(ty: VarType, vr: u32) -> Option<&'static Variable> {
     VARIABLES.iter().find(|v| v.ty == ty && v.vr == vr)
 }
 
-/// 1-based ModelStructure index of a variable (its position in [`VARIABLES`]).
+/// 1-based ModelStructure index of a sensor variable (its position in [`VARIABLES`]).
 pub fn index_of(ty: VarType, vr: u32) -> Option<usize> {
     VARIABLES
         .iter()

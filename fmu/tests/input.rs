@@ -29,20 +29,6 @@ fn instance(kind: SensorKind, mode: &str) -> Inst {
     i
 }
 
-/// Ground-truth ids the SensorData reports (detected objects' headers).
-fn reported_gt_ids(sd: &osi3::SensorData) -> Vec<u64> {
-    sd.moving_object
-        .iter()
-        .filter_map(|o| o.header.as_ref())
-        .chain(
-            sd.stationary_object
-                .iter()
-                .filter_map(|o| o.header.as_ref()),
-        )
-        .flat_map(|h| h.ground_truth_id.iter().filter_map(|i| i.value))
-        .collect()
-}
-
 fn object2(v: &mut osi3::SensorView) -> &mut osi3::BaseMoving {
     v.global_ground_truth.as_mut().unwrap().moving_object[1]
         .base

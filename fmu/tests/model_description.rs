@@ -1,5 +1,5 @@
-//! The checked-in `modelDescription/{camera,radar,lidar}.xml` must equal the rendered XML, and the
-//! rendered XML must carry the variable contract.
+//! The checked-in `modelDescription/{camera,radar,lidar,scenario}.xml` must equal the rendered XML,
+//! and the rendered XML must carry the variable contract.
 //!
 //! Regenerate after an intended change with:
 //! `OSIRIS_BLESS=1 cargo test -p osiris-fmu --test model_description`
@@ -7,24 +7,34 @@
 use std::collections::HashSet;
 use std::path::PathBuf;
 
-use osiris_fmu::sensors;
-use osiris_fmu::variables::{VARIABLES, vr};
+use osiris_fmu::variables::{SOURCE_VARIABLES, VARIABLES, vr};
+use osiris_fmu::{FmuDescriptor, sensors, sources};
 use osiris_models::{SensorConfig, SensorKind};
 
-fn checked_in_path(kind: SensorKind) -> PathBuf {
+fn checked_in_path(desc: &FmuDescriptor) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("..")
         .join("modelDescription")
-        .join(format!("{}.xml", kind.name()))
+        .join(format!("{}.xml", desc.name()))
+}
+
+/// Every shipped FMU: the three sensors and the scenario player.
+fn all_descriptors() -> Vec<&'static FmuDescriptor> {
+    let mut all: Vec<_> = SensorKind::ALL
+        .into_iter()
+        .map(sensors::descriptor)
+        .collect();
+    all.push(&sources::scenario::DESCRIPTOR);
+    all
 }
 
 #[test]
 fn checked_in_model_descriptions_match_the_renderer() {
     let bless = std::env::var_os("OSIRIS_BLESS").is_some_and(|v| v == "1");
     let mut drift = Vec::new();
-    for kind in SensorKind::ALL {
-        let rendered = sensors::descriptor(kind).model_description();
-        let path = checked_in_path(kind);
+    for desc in all_descriptors() {
+        let rendered = desc.model_description();
+        let path = checked_in_path(desc);
         if bless {
             std::fs::create_dir_all(path.parent().unwrap()).unwrap();
             std::fs::write(&path, &rendered).unwrap();
@@ -47,8 +57,7 @@ fn checked_in_model_descriptions_match_the_renderer() {
 #[test]
 fn rendering_is_deterministic_and_the_guid_is_the_xml_guid() {
     let mut guids = HashSet::new();
-    for kind in SensorKind::ALL {
-        let desc = sensors::descriptor(kind);
+    for desc in all_descriptors() {
         let a = desc.model_description();
         let b = osiris_fmu::model_description::render(desc);
         assert_eq!(a, b);
@@ -62,7 +71,7 @@ fn rendering_is_deterministic_and_the_guid_is_the_xml_guid() {
         assert!(uuid::Uuid::parse_str(desc.guid()).is_ok());
         assert!(
             guids.insert(desc.guid().to_string()),
-            "GUIDs must differ between sensors"
+            "GUIDs must differ between FMUs"
         );
         assert!(!a.contains("generationDateAndTime"));
     }
@@ -392,4 +401,128 @@ fn default_config_json_parses_back_to_the_defaults() {
             SensorConfig::default_for(kind)
         );
     }
+}
+
+#[test]
+fn scenario_source_follows_osmp_source_rules() {
+    let desc = &sources::scenario::DESCRIPTOR;
+    assert!(desc.is_source());
+    assert_eq!(desc.name(), "scenario");
+    let xml = desc.model_description();
+    let doc = roxmltree::Document::parse(&xml).unwrap();
+    let root = doc.root_element();
+    let cs = root
+        .children()
+        .find(|n| n.has_tag_name("CoSimulation"))
+        .unwrap();
+    assert_eq!(cs.attribute("modelIdentifier"), Some("osiris_scenario"));
+    let de = root
+        .children()
+        .find(|n| n.has_tag_name("DefaultExperiment"))
+        .unwrap();
+    let c = osiris_scenario::ScenarioConfig::default();
+    assert_eq!(de.attribute("startTime"), Some("0"));
+    assert_eq!(
+        de.attribute("stopTime"),
+        Some(c.duration_s.to_string().as_str())
+    );
+    assert_eq!(
+        de.attribute("stepSize"),
+        Some(c.step_s.to_string().as_str())
+    );
+
+    let svs: Vec<roxmltree::Node> = root
+        .descendants()
+        .filter(|n| n.has_tag_name("ScalarVariable"))
+        .collect();
+    assert_eq!(svs.len(), SOURCE_VARIABLES.len());
+    // (name, type, VR, causality, variability, initial, start): the OSMP names of a SensorView
+    // source; the output VRs are those of the official OSMPDummySource.
+    /// (name, type, VR, causality, variability, initial, start).
+    type Row<'a> = (
+        &'a str,
+        &'a str,
+        &'a str,
+        &'a str,
+        &'a str,
+        Option<&'a str>,
+        Option<&'a str>,
+    );
+    let table: Vec<Row> = svs
+        .iter()
+        .map(|sv| {
+            let ty = sv
+                .children()
+                .find(|n| n.is_element() && n.tag_name().name() != "Annotations")
+                .unwrap();
+            (
+                sv.attribute("name").unwrap(),
+                ty.tag_name().name(),
+                sv.attribute("valueReference").unwrap(),
+                sv.attribute("causality").unwrap(),
+                sv.attribute("variability").unwrap(),
+                sv.attribute("initial"),
+                ty.attribute("start"),
+            )
+        })
+        .collect();
+    let out = |name, ty, vr| (name, ty, vr, "output", "discrete", Some("calculated"), None);
+    let param = |name, vr, start| (name, "String", vr, "parameter", "fixed", None, Some(start));
+    assert_eq!(
+        table,
+        [
+            out("OSMPSensorViewOut.base.lo", "Integer", "0"),
+            out("OSMPSensorViewOut.base.hi", "Integer", "1"),
+            out("OSMPSensorViewOut.size", "Integer", "2"),
+            out("valid", "Boolean", "0"),
+            out("count", "Integer", "3"),
+            param("scenario", "0", "scenario.json"),
+            param("trace_path", "1", ""),
+            param("sensor", "2", ""),
+        ]
+    );
+    for (sv, role) in svs.iter().zip(["base.lo", "base.hi", "size"]) {
+        let ann = sv
+            .descendants()
+            .find(|n| n.tag_name().name() == "osmp-binary-variable")
+            .unwrap();
+        assert_eq!(ann.attribute("name"), Some("OSMPSensorViewOut"));
+        assert_eq!(ann.attribute("role"), Some(role));
+        assert_eq!(
+            ann.attribute("mime-type"),
+            Some(osiris_proto::MIME_SENSOR_VIEW)
+        );
+    }
+    assert!(
+        !xml.contains("OSMPSensorViewIn") && !xml.contains("OSMPSensorDataOut"),
+        "a source has no sensor variables"
+    );
+    assert_eq!(vr::source::integer::SENSOR_VIEW_OUT, [0, 1, 2]);
+
+    // ModelStructure: the five outputs, all InitialUnknowns depending on the three parameters.
+    let unknowns = |section: &str| -> Vec<(String, Option<String>)> {
+        root.descendants()
+            .find(|n| n.has_tag_name(section))
+            .unwrap_or_else(|| panic!("{section} missing"))
+            .children()
+            .filter(|n| n.has_tag_name("Unknown"))
+            .map(|n| {
+                (
+                    n.attribute("index").unwrap().to_string(),
+                    n.attribute("dependencies").map(str::to_owned),
+                )
+            })
+            .collect()
+    };
+    let five: Vec<String> = (1..=5).map(|i| i.to_string()).collect();
+    assert_eq!(
+        unknowns("Outputs"),
+        five.iter().map(|i| (i.clone(), None)).collect::<Vec<_>>()
+    );
+    assert_eq!(
+        unknowns("InitialUnknowns"),
+        five.iter()
+            .map(|i| (i.clone(), Some("6 7 8".to_owned())))
+            .collect::<Vec<_>>()
+    );
 }

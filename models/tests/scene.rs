@@ -1,5 +1,5 @@
 //! Tests of the scene from OSI (`osiris_models::environment::scene`) on a ground truth shaped like the
-//! built-in scenario (`src/scenario.rs`): 3 lanes of 3.5 m plus a 2.5 m shoulder, 400 m long, solid
+//! built-in scenario (`scenario/src/lib.rs`): 3 lanes of 3.5 m plus a 2.5 m shoulder, 400 m long, solid
 //! outer lines, dashed inner lines with dash flags (6 m / 12 m), a road edge, a guardrail, a trihedral,
 //! a board, a cone and six road users (host id 1).
 

@@ -39,12 +39,16 @@ pub const FATAL: Fmi2Status = Fmi2Status::Fatal;
 
 /// A temporary resources directory holding the kind's default `config.json`.
 pub fn resources_dir(kind: SensorKind) -> tempfile::TempDir {
+    resources_dir_of(sensors::descriptor(kind))
+}
+
+/// A temporary resources directory holding what the FMU's `resources/` ships (a sensor's
+/// `config.json`, the scenario player's `scenario.json`).
+pub fn resources_dir_of(desc: &FmuDescriptor) -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(
-        dir.path().join("config.json"),
-        sensors::default_config_json(kind),
-    )
-    .unwrap();
+    for (name, content) in desc.resource_files() {
+        std::fs::write(dir.path().join(name), content).unwrap();
+    }
     dir
 }
 
@@ -110,7 +114,7 @@ impl Inst {
         let guid = CString::new(opts.guid.unwrap_or(desc.guid())).unwrap();
         let (tmp, location) = match opts.resources {
             None => {
-                let d = resources_dir(desc.kind);
+                let d = resources_dir_of(desc);
                 let uri = dir_uri(d.path());
                 (Some(d), Some(uri))
             }

@@ -28,6 +28,13 @@
 //!   object ids; all ids must be unique.
 //! * Steps: `step_count() = round(duration_s / step_s)`, step `k` at `t = k · step_s` (the
 //!   communication points of a co-simulation over `[0, duration_s)`).
+//!
+//! [`player`] turns a scenario (one sensor's view of it) or a recorded SensorView trace into one
+//! stream of SensorViews over time: what `scenario.fmu` publishes.
+
+pub mod player;
+
+pub use player::{Player, PlayerError};
 
 use std::path::{Path, PathBuf};
 
@@ -1210,7 +1217,12 @@ impl ScenarioConfig {
     /// The global ground truth at a step: every moving object (the host first), stationary objects,
     /// lanes, lane boundaries and environmental conditions.
     pub fn ground_truth(&self, step: usize) -> osi3::GroundTruth {
-        let t = self.time_s(step);
+        self.ground_truth_at(self.time_s(step))
+    }
+
+    /// The global ground truth at scenario time `t` s (any time, not only a step's; step `k` is
+    /// `t = k · step_s`, see [`ScenarioConfig::ground_truth`]).
+    pub fn ground_truth_at(&self, t: f64) -> osi3::GroundTruth {
         let ts = timestamp_from_seconds(self.start_time_s + t);
         let host_id = self.ego_id();
         let mut moving = Vec::with_capacity(1 + self.road_users.len());
@@ -1250,6 +1262,12 @@ impl ScenarioConfig {
     pub fn sensor_view(&self, step: usize, sensor: &SensorMount) -> osi3::SensorView {
         let gt = self.ground_truth(step);
         self.sensor_view_with(gt, sensor)
+    }
+
+    /// The SensorView of `sensor` at scenario time `t` s ([`ScenarioConfig::sensor_view`] between
+    /// steps).
+    pub fn sensor_view_at(&self, t: f64, sensor: &SensorMount) -> osi3::SensorView {
+        self.sensor_view_with(self.ground_truth_at(t), sensor)
     }
 
     /// The SensorViews of all configured sensors at `step`, in configuration order (the ground truth
