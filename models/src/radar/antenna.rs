@@ -168,6 +168,78 @@ impl AntennaPattern {
         }
     }
 
+    /// The main lobe in the principal planes, `[az_min, az_max, el_min, el_max]` rad: the angles
+    /// out to the first null (first minimum) either side of the peak.
+    ///
+    /// * Gaussian: the Gaussian stands for the main lobe of an aperture; its edge is the first
+    ///   null of the uniform aperture with the same 3 dB beamwidth θ₃. Uniform broadside
+    ///   aperture / array of length D (Balanis, *Antenna Theory* 4th ed. §6.3, Table 6.1):
+    ///   field `sin u / u`, `u = π (D/λ) sin θ`; half-power points at `u = 1.39156` (Balanis
+    ///   rounds to 1.391), first nulls at `u = π`, so `sin θ_n = π/1.39156 · sin(θ₃/2)` (capped
+    ///   at 90°).
+    /// * cosⁿ: its first zero, ±90°.
+    /// * Table: walking from the table's peak along its row (azimuth) and column (elevation)
+    ///   while the gain does not rise; the first minimum (or the grid's end: the pattern is not
+    ///   known beyond it) bounds the lobe; an axis with a single grid angle (a pattern constant
+    ///   along it) does not bound it (±90°).
+    pub fn main_lobe_rad(&self) -> [f64; 4] {
+        let half_pi = 0.5 * std::f64::consts::PI;
+        match self {
+            AntennaPattern::Parametric {
+                shape,
+                azimuth_beamwidth_deg,
+                elevation_beamwidth_deg,
+                ..
+            } => {
+                let edge = |th3_deg: f64| match shape {
+                    BeamShape::Gaussian => {
+                        let s = std::f64::consts::PI / 1.39156 * (0.5 * th3_deg.to_radians()).sin();
+                        if s >= 1.0 { half_pi } else { s.asin() }
+                    }
+                    BeamShape::CosPower => half_pi,
+                };
+                let (a, e) = (edge(*azimuth_beamwidth_deg), edge(*elevation_beamwidth_deg));
+                [-a, a, -e, e]
+            }
+            AntennaPattern::Table {
+                azimuth_deg,
+                elevation_deg,
+                gain_dbi,
+            } => {
+                // Peak cell (first maximum).
+                let (mut ie, mut ia, mut best) = (0, 0, f64::NEG_INFINITY);
+                for (i, row) in gain_dbi.iter().enumerate() {
+                    for (j, &g) in row.iter().enumerate() {
+                        if g > best {
+                            (ie, ia, best) = (i, j, g);
+                        }
+                    }
+                }
+                // Index range around `peak` over which `g(i)` keeps falling away from it.
+                let walk = |grid: &[f64], peak: usize, g: &dyn Fn(usize) -> f64| {
+                    if grid.len() < 2 {
+                        return (-half_pi, half_pi);
+                    }
+                    let mut lo = peak;
+                    while lo > 0 && g(lo - 1) <= g(lo) {
+                        lo -= 1;
+                    }
+                    let mut hi = peak;
+                    while hi + 1 < grid.len() && g(hi + 1) <= g(hi) {
+                        hi += 1;
+                    }
+                    (
+                        grid[lo].to_radians().max(-half_pi),
+                        grid[hi].to_radians().min(half_pi),
+                    )
+                };
+                let (a0, a1) = walk(azimuth_deg, ia, &|j| gain_dbi[ie][j]);
+                let (e0, e1) = walk(elevation_deg, ie, &|i| gain_dbi[i][ia]);
+                [a0, a1, e0, e1]
+            }
+        }
+    }
+
     /// Gain in a direction, dBi.
     pub fn gain_dbi(&self, azimuth_rad: f64, elevation_rad: f64) -> f64 {
         match self {
@@ -364,6 +436,23 @@ impl Antennas {
             self.rx.peak_gain_dbi()
         }
     }
+
+    /// The two-way main lobe, `[az_min, az_max, el_min, el_max]` rad: the intersection of the Tx
+    /// and Rx main lobes ([`AntennaPattern::main_lobe_rad`]); the whole front half-space (±90°)
+    /// with the pattern switched off (every direction gets the peak gain).
+    pub fn main_lobe_rad(&self) -> [f64; 4] {
+        let h = 0.5 * std::f64::consts::PI;
+        if !self.patterned {
+            return [-h, h, -h, h];
+        }
+        let (t, r) = (self.tx.main_lobe_rad(), self.rx.main_lobe_rad());
+        [
+            t[0].max(r[0]),
+            t[1].min(r[1]),
+            t[2].max(r[2]),
+            t[3].min(r[3]),
+        ]
+    }
 }
 
 #[cfg(test)]
@@ -391,6 +480,81 @@ mod tests {
                 "{shape:?}: {g}"
             );
         }
+    }
+
+    #[test]
+    fn gaussian_main_lobe_ends_at_the_first_null_of_the_equivalent_uniform_aperture() {
+        // Independent closed form: a uniform aperture of length D has the field pattern
+        // sin(u)/u, u = π (D/λ) sin θ (Balanis §6.3). Choose D/λ so that its half-power point
+        // (sinc² = ½, u = 1.39156) sits at θ₃/2; its first null (u = π) is the lobe's edge.
+        for (th3_deg, az) in [(12.0f64, true), (30.0, false), (8.0, true)] {
+            let p = AntennaPattern::Parametric {
+                shape: BeamShape::Gaussian,
+                peak_gain_dbi: 10.0,
+                azimuth_beamwidth_deg: if az { th3_deg } else { 50.0 },
+                elevation_beamwidth_deg: if az { 50.0 } else { th3_deg },
+            };
+            let d_over_lambda =
+                1.39156 / (std::f64::consts::PI * (0.5 * th3_deg.to_radians()).sin());
+            let field = |th: f64| {
+                let u = std::f64::consts::PI * d_over_lambda * th.sin();
+                u.sin() / u
+            };
+            let lobe = p.main_lobe_rad();
+            let edge = if az { lobe[1] } else { lobe[3] };
+            assert!((field(0.5 * th3_deg.to_radians()).powi(2) - 0.5).abs() < 1e-4);
+            assert!(
+                field(edge).abs() < 2e-3,
+                "{th3_deg}°: edge {}°",
+                edge.to_degrees()
+            );
+            assert!(field(0.98 * edge) > 0.0);
+            let lo = if az { lobe[0] } else { lobe[2] };
+            assert_eq!(lo, -edge);
+        }
+        // A beam wider than the uniform aperture's widest main lobe: the whole front half-space.
+        let wide = AntennaPattern::default().main_lobe_rad();
+        assert_eq!(wide[1], 0.5 * std::f64::consts::PI);
+        let cos = AntennaPattern::Parametric {
+            shape: BeamShape::CosPower,
+            peak_gain_dbi: 10.0,
+            azimuth_beamwidth_deg: 20.0,
+            elevation_beamwidth_deg: 20.0,
+        };
+        assert_eq!(cos.main_lobe_rad()[3], 0.5 * std::f64::consts::PI);
+    }
+
+    #[test]
+    fn table_main_lobe_runs_to_the_first_minimum() {
+        // Peak at 0°, nulls at ±20° (azimuth) and −10° / +10° (elevation), sidelobes beyond.
+        let p = AntennaPattern::Table {
+            azimuth_deg: vec![-40.0, -20.0, -10.0, 0.0, 10.0, 20.0, 40.0],
+            elevation_deg: vec![-20.0, -10.0, 0.0, 10.0, 20.0],
+            gain_dbi: vec![
+                vec![-5.0; 7],
+                vec![-20.0; 7],
+                vec![-5.0, -30.0, 7.0, 10.0, 7.0, -30.0, -5.0],
+                vec![-20.0; 7],
+                vec![-5.0; 7],
+            ],
+        };
+        let l = p.main_lobe_rad();
+        let deg = |x: f64| x.to_degrees();
+        assert!((deg(l[0]) + 20.0).abs() < 1e-9 && (deg(l[1]) - 20.0).abs() < 1e-9);
+        assert!((deg(l[2]) + 10.0).abs() < 1e-9 && (deg(l[3]) - 10.0).abs() < 1e-9);
+        let fe = FrontEndConfig {
+            rx_pattern: p,
+            ..FrontEndConfig::default()
+        };
+        let mut e = Effects::new(&crate::effects::catalogue());
+        let two_way = Antennas::new(&fe, &e).main_lobe_rad();
+        // Intersection with the default Tx (Gaussian 60° × 12°: ±90°, ±13.6°).
+        assert!((deg(two_way[3]) - 10.0).abs() < 1e-9 && (deg(two_way[1]) - 20.0).abs() < 1e-9);
+        e.set(ANTENNA_PATTERN.name, false).unwrap();
+        assert_eq!(
+            Antennas::new(&fe, &e).main_lobe_rad()[3],
+            0.5 * std::f64::consts::PI
+        );
     }
 
     #[test]

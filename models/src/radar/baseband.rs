@@ -1,11 +1,26 @@
 //! FMCW baseband: IF cube synthesis (samples × chirps × virtual channels) from the propagation
 //! paths with thermal noise and impairments, and the processing chain (range FFT, Doppler FFT,
-//! non-coherent integration, 2-D CFAR, peak interpolation, angle FFT with a joint fit of several
-//! targets per range-Doppler cell) to detections.
+//! non-coherent integration, 2-D CFAR, peak interpolation, TDM Doppler-ambiguity hypothesis test,
+//! angle FFT with a joint fit of several targets per range-Doppler cell, angle gate) to
+//! detections.
 //!
 //! API contract (used by the radar sensor): one [`RadarChain`] per model instance, planned once;
-//! per frame [`RadarChain::run`] synthesises the IF cube from the paths and processes it into
-//! detections.
+//! the sensor declares its field of view ([`RadarChain::set_field_of_view`]); per frame
+//! [`RadarChain::run`] synthesises the IF cube from the paths and processes it into detections.
+//!
+//! # Angle gate
+//! A detection is reported only when its estimated direction lies inside the gate = declared
+//! field of view ∩ two-way main lobe of the Tx / Rx patterns
+//! ([`super::antenna::Antennas::main_lobe_rad`]; `ProcessingConfig::field_of_view_gate`), after
+//! the sines are folded into the array's unambiguous interval (period 2/g in sin-space, g the
+//! greatest common divisor of the virtual element offsets in λ/2). Outside the gate an estimate
+//! cannot be told from a sidelobe, grating-lobe or multipath-corrupted one (a single λ/2 vertical
+//! baseline puts a noisy or two-ray-corrupted elevation anywhere in ±90°), and the RCS estimate
+//! would divide by a gain that is not the main lobe's. Before the angle fit, the TDM-MIMO Doppler
+//! ambiguity is resolved ([`ProcessingConfig::velocity_disambiguation`]): with the folded range
+//! rate a target beyond ±v_max (every static object seen from a car faster than 37 km/h with the
+//! default waveform) gets Tx-slot phase errors 2π j t / N_tx that move its angle estimate by
+//! tens of degrees.
 //!
 //! # IF model (physics.md §1.6)
 //! Complex (IQ) ADC, IF = LO · conj(RX). Sample n of chirp m of virtual channel k = (Tx t, Rx r):
@@ -51,7 +66,7 @@ use crate::effects::{EffectInfo, Effects};
 use crate::sensor::ModelError;
 
 use super::PathReturn;
-use super::antenna::FrontEndConfig;
+use super::antenna::{Antennas, FrontEndConfig};
 use super::processing::{self, CfarKind, MAX_ANGLE_PEAKS, ProcessingConfig};
 use super::waveform::{ArrayConfig, C_M_S, InterfererConfig, PhaseNoiseConfig, WaveformConfig};
 
@@ -107,7 +122,8 @@ pub const EFFECTS: &[EffectInfo] = &[RECEIVER_COMPRESSION, PHASE_NOISE, INTERFER
 pub struct ChainDetection {
     /// Range, m (interpolated).
     pub range_m: f64,
-    /// Range rate, m/s, positive away (interpolated).
+    /// Range rate, m/s, positive away (interpolated; unfolded into ±N_tx v_max by the TDM
+    /// hypothesis test with `velocity_disambiguation`, else within ±v_max).
     pub range_rate_m_s: f64,
     /// Azimuth, rad (about +z from +x).
     pub azimuth_rad: f64,
@@ -262,6 +278,25 @@ pub struct RadarChain {
     /// Angular resolution in sin-space: main-lobe half width of the angle window, in cells of
     /// 2 / N_az (N_az: horizontal aperture in λ/2).
     angle_res_sin: f64,
+    /// Two-way main lobe of the Tx / Rx patterns, `[az_min, az_max, el_min, el_max]` rad.
+    lobe_rad: [f64; 4],
+    /// Declared field of view (full horizontal, full vertical), rad; `None`: not declared.
+    fov_rad: Option<(f64, f64)>,
+    /// Angle gate: `lobe_rad` ∩ the declared field of view, rad.
+    gate_rad: [f64; 4],
+    /// Period in sin-space of the horizontal / vertical array response, `2/g` with g the greatest
+    /// common divisor of the element offsets (λ/2 units); `None` for g ≤ 1 (no grating lobes in
+    /// [−1, 1]) or no aperture.
+    sy_period: Option<f64>,
+    sz_period: Option<f64>,
+    /// TDM Doppler-ambiguity hypotheses are tested (`velocity_disambiguation` and TDM-MIMO with
+    /// compensation and more than one Tx).
+    disambiguate: bool,
+    /// Hypothesis test: per elevation sample inside the gate, the window × e^{jπ z s_z} weight of
+    /// every virtual element (`[sample][k]`).
+    hyp_weights: Vec<Complex64>,
+    /// Hypothesis test: the azimuth FFT bins whose sine lies inside the gate.
+    hyp_bins: Vec<usize>,
 }
 
 /// Re-estimation sweeps over all components after each new angle component (RELAX).
@@ -269,6 +304,19 @@ const RELAX_SWEEPS: usize = 1;
 
 /// Gauss-Newton iterations (at most) of the joint azimuth refinement.
 const JOINT_ITERATIONS: usize = 12;
+
+/// Greatest common divisor (Euclid).
+fn gcd(a: u32, b: u32) -> u32 {
+    if b == 0 { a } else { gcd(b, a % b) }
+}
+
+/// The representative of `s` in `[−period/2, period/2)` (`None`: `s` itself).
+fn principal(s: f64, period: Option<f64>) -> f64 {
+    match period {
+        Some(p) => s - p * (s / p + 0.5).floor(),
+        None => s,
+    }
+}
 
 /// SplitMix64 finaliser: decorrelated per-item seeds.
 fn mix(mut z: u64) -> u64 {
@@ -462,7 +510,18 @@ impl RadarChain {
         } else {
             Vec::new()
         };
-        let chain = RadarChain {
+        // Greatest common divisor of the element offsets along each axis: the array response is
+        // periodic in sin-space with period 2/g (grating lobes for g > 1).
+        let period = |axis: usize| {
+            let g = virt
+                .iter()
+                .map(|p| (p[axis] - virt[0][axis]).unsigned_abs())
+                .fold(0u32, gcd);
+            (g > 1).then(|| 2.0 / f64::from(g))
+        };
+        let (sy_period, sz_period) = (period(0), period(1));
+        let lobe_rad = Antennas::new(front_end, effects).main_lobe_rad();
+        let mut chain = RadarChain {
             ns,
             nc,
             ntx,
@@ -543,8 +602,98 @@ impl RadarChain {
             el_row_of,
             el_match,
             angle_res_sin,
+            lobe_rad,
+            fov_rad: None,
+            gate_rad: lobe_rad,
+            sy_period,
+            sz_period,
+            disambiguate: waveform.tdm_mimo
+                && processing.tdm_doppler_compensation
+                && processing.velocity_disambiguation
+                && ntx > 1,
+            hyp_weights: Vec::new(),
+            hyp_bins: Vec::new(),
         };
+        chain.update_gate();
         Ok(chain)
+    }
+
+    /// Declare the sensor's field of view (full horizontal and vertical opening angles, symmetric
+    /// about boresight, rad): the angle gate becomes the two-way main lobe ∩ this field of view
+    /// (`ProcessingConfig::field_of_view_gate`). Until declared, the gate is the main lobe.
+    pub fn set_field_of_view(&mut self, horizontal_rad: f64, vertical_rad: f64) {
+        let fov = Some((horizontal_rad, vertical_rad));
+        if fov != self.fov_rad {
+            self.fov_rad = fov;
+            self.update_gate();
+        }
+    }
+
+    /// The angle gate `[az_min, az_max, el_min, el_max]`, rad: detections are reported only inside
+    /// it (with `ProcessingConfig::field_of_view_gate`).
+    pub fn angle_gate_rad(&self) -> [f64; 4] {
+        self.gate_rad
+    }
+
+    /// Recompute the gate and the hypothesis test's elevation samples and azimuth bins.
+    fn update_gate(&mut self) {
+        let mut g = self.lobe_rad;
+        if let Some((h, v)) = self.fov_rad {
+            let (h, v) = (0.5 * h.abs(), 0.5 * v.abs());
+            g = [g[0].max(-h), g[1].min(h), g[2].max(-v), g[3].min(v)];
+        }
+        self.gate_rad = g;
+        // Elevation samples across the gate, spaced ≤ 1/(2 Z) in sin-space (Z: vertical aperture
+        // in λ/2; a quarter of the first-null width 2/Z, ≤ 1 dB of beam loss between samples).
+        let (z_min, z_max) = self
+            .virt
+            .iter()
+            .fold((i32::MAX, i32::MIN), |(a, b), p| (a.min(p[1]), b.max(p[1])));
+        let (s_lo, s_hi) = (g[2].sin(), g[3].sin());
+        let n_el = if self.has_el && s_hi > s_lo {
+            (((s_hi - s_lo) * 2.0 * f64::from(z_max - z_min + 1)).ceil() as usize).clamp(1, 64)
+        } else {
+            1
+        };
+        self.hyp_weights.clear();
+        for i in 0..n_el {
+            let sz = if n_el == 1 && !self.has_el {
+                0.0
+            } else {
+                s_lo + (i as f64 + 0.5) * (s_hi - s_lo) / n_el as f64
+            };
+            for (p, w) in self.virt.iter().zip(&self.angle_win) {
+                self.hyp_weights.push(Complex64::from_polar(
+                    *w as f64,
+                    std::f64::consts::PI * p[1] as f64 * sz,
+                ));
+            }
+        }
+        // Azimuth sines of the gate: the extremes of s_y = cos el sin az over the gate's box.
+        let cos_el = g[2]
+            .abs()
+            .max(g[3].abs())
+            .min(0.5 * std::f64::consts::PI)
+            .cos();
+        let (a0, a1) = (g[0].sin(), g[1].sin());
+        let sy_lo = if a0 > 0.0 { a0 * cos_el } else { a0 };
+        let sy_hi = if a1 < 0.0 { a1 * cos_el } else { a1 };
+        let a = self.az_len as f64;
+        self.hyp_bins = (0..self.az_len)
+            .filter(|&q| {
+                let signed = if q >= self.az_len / 2 {
+                    q as f64 - a
+                } else {
+                    q as f64
+                };
+                let s = -2.0 * signed / a;
+                // Half a bin of slack: the peak bin of a target at the gate's edge.
+                s >= sy_lo - 1.0 / a && s <= sy_hi + 1.0 / a
+            })
+            .collect();
+        if self.hyp_bins.is_empty() {
+            self.hyp_bins = (0..self.az_len).collect();
+        }
     }
 
     /// Thermal noise power per complex IF sample referred to the receiver input, `k T₀ F_n f_s`, W.
@@ -1206,7 +1355,9 @@ impl RadarChain {
     }
 
     /// One CFAR hit at range bin `n`, Doppler bin `d` → up to `max_angle_peaks_per_cell`
-    /// detections, one per resolved angle component (none below `min_snr_db`).
+    /// detections, one per resolved angle component (none below `min_snr_db`, none outside the
+    /// angle gate). The cell's channel vector is compensated with the range rate the TDM
+    /// hypothesis test picks ([`Self::disambiguate_velocity`]).
     ///
     /// Several targets in one cell (same range and Doppler) are separated in angle by a
     /// sequential fit (CLEAN / RELAX: Li & Stoica, "Efficient mixed-spectrum estimation with
@@ -1259,22 +1410,17 @@ impl RadarChain {
         } else {
             d as f64
         };
-        let v = (d_signed + dd) * dv;
+        // Range rate of the Doppler bin (folded into ±v_max), then unfolded by the TDM hypothesis
+        // test; `b.x` holds the cell's channel vector compensated with it.
+        let v = if self.disambiguate {
+            self.disambiguate_velocity(n, d, (d_signed + dd) * dv, b)
+        } else {
+            let v = (d_signed + dd) * dv;
+            self.load_cell(n, d, v, b);
+            v
+        };
         let fb = (n as f64 + dn) * self.fs_hz / ns as f64;
         let range = C_M_S * (fb - 2.0 * v / self.lambda_m) / (2.0 * self.slope);
-        // The cell's channel vector with the TDM Doppler phase of each Tx slot removed. A virtual
-        // element at (y, z) (λ/2 units) sees x ∝ e^{−jπ(y s_y + z s_z)}, s_y = cos el sin az,
-        // s_z = sin el.
-        for k in 0..nk {
-            let mut x = self.dop[(n * nk + k) * nc + d];
-            if self.tdm && self.proc.tdm_doppler_compensation {
-                let t = k / self.nrx;
-                let ph =
-                    -4.0 * std::f64::consts::PI * v * t as f64 * self.t_chirp_s / self.lambda_m;
-                x *= C32::new(ph.cos() as f32, ph.sin() as f32);
-            }
-            b.x[k] = Complex64::new(x.re as f64, x.im as f64);
-        }
         let noise_beam = self.noise_cell * self.angle_win_sq;
         let snr_db_of = |beam: f64| 10.0 * ((beam - noise_beam) / noise_beam).max(1e-12).log10();
         let maxp = self.proc.max_angle_peaks_per_cell.clamp(1, MAX_ANGLE_PEAKS);
@@ -1342,8 +1488,17 @@ impl RadarChain {
             if snr_db < self.proc.min_snr_db {
                 continue;
             }
-            let el = c.sz.clamp(-1.0, 1.0).asin();
-            let az = (c.sy / el.cos().max(1e-9)).clamp(-1.0, 1.0).asin();
+            // Sines folded into the array's unambiguous interval (sparse arrays).
+            let sz = principal(c.sz, self.sz_period);
+            let sy = principal(c.sy, self.sy_period);
+            let el = sz.clamp(-1.0, 1.0).asin();
+            let az = (sy / el.cos().max(1e-9)).clamp(-1.0, 1.0).asin();
+            let g = &self.gate_rad;
+            if self.proc.field_of_view_gate
+                && !(az >= g[0] && az <= g[1] && el >= g[2] && el <= g[3])
+            {
+                continue;
+            }
             let sig = ((c.amp.norm_sqr() - self.noise_cell / nk as f64) * straddle).max(1e-30);
             let power_w = sig / self.coherent_gain;
             *slot = Some(ChainDetection {
@@ -1357,6 +1512,71 @@ impl RadarChain {
             });
         }
         res
+    }
+
+    /// `b.x` ← the channel vector of cell (`n`, `d`) with the TDM Doppler phase of each Tx slot
+    /// for range rate `v` removed (`tdm_doppler_compensation`). A virtual element at (y, z) (λ/2
+    /// units) sees x ∝ e^{−jπ(y s_y + z s_z)}, s_y = cos el sin az, s_z = sin el.
+    fn load_cell(&self, n: usize, d: usize, v: f64, b: &mut AngleBufs) {
+        let (nk, nc) = (self.nk, self.nc);
+        for k in 0..nk {
+            let mut x = self.dop[(n * nk + k) * nc + d];
+            if self.tdm && self.proc.tdm_doppler_compensation {
+                let t = k / self.nrx;
+                let ph =
+                    -4.0 * std::f64::consts::PI * v * t as f64 * self.t_chirp_s / self.lambda_m;
+                x *= C32::new(ph.cos() as f32, ph.sin() as f32);
+            }
+            b.x[k] = Complex64::new(x.re as f64, x.im as f64);
+        }
+    }
+
+    /// TDM-MIMO Doppler ambiguity (`ProcessingConfig::velocity_disambiguation`): the range rate
+    /// `v_folded` of the Doppler bin is `v + 2 v_max j` for an unknown integer j
+    /// (`2 v_max = λ / (2 N_tx T_c)`); compensating the Tx slots with the wrong j leaves slot t a
+    /// phase error 2π j t / N_tx (the N_tx residues of j are distinguishable, the rest is not).
+    /// Each of the N_tx hypotheses with `v ∈ [−N_tx v_max, N_tx v_max)` is compensated, and the
+    /// one with the strongest beam `|Σ_k w_k x_k e^{jπ(y_k s_y + z_k s_z)}|²` over the angle gate
+    /// (azimuth FFT bins inside it, elevation samples across it) wins; ties keep the folded rate
+    /// (j = 0). The winner's vector is left in `b.x`; returns its range rate.
+    fn disambiguate_velocity(&self, n: usize, d: usize, v_folded: f64, b: &mut AngleBufs) -> f64 {
+        let two_vmax = self.lambda_m / (2.0 * self.t_rep_s);
+        let n_h = self.ntx as i64;
+        let v_ext = 0.5 * n_h as f64 * two_vmax;
+        let j0 = ((-v_ext - v_folded) / two_vmax).ceil() as i64;
+        let (mut best_v, mut best_m) = (v_folded, f64::NEG_INFINITY);
+        for j in std::iter::once(0).chain((j0..j0 + n_h).filter(|&j| j != 0)) {
+            let v = v_folded + two_vmax * j as f64;
+            self.load_cell(n, d, v, b);
+            let m = self.gate_beam_peak(b);
+            // A relative margin: hypotheses the array cannot tell apart tie up to rounding.
+            if m > best_m * (1.0 + 1e-9) {
+                (best_v, best_m) = (v, m);
+            }
+        }
+        self.load_cell(n, d, best_v, b);
+        best_v
+    }
+
+    /// The strongest beam power of `b.x` inside the angle gate: for each elevation sample of
+    /// the gate, the windowed aperture steered to it and projected onto the horizontal axis,
+    /// zero-padded azimuth FFT, maximum over the bins inside the gate.
+    fn gate_beam_peak(&self, b: &mut AngleBufs) -> f64 {
+        let nk = self.nk;
+        let mut best = 0f64;
+        for wts in self.hyp_weights.chunks_exact(nk) {
+            b.line.fill(C32::default());
+            for ((xk, p), w) in b.x.iter().zip(&self.virt).zip(wts) {
+                let v = xk * w;
+                b.line[(p[0] - self.y_min) as usize] += C32::new(v.re as f32, v.im as f32);
+            }
+            self.fft_az
+                .process_with_scratch(&mut b.line, &mut b.scratch);
+            for &q in &self.hyp_bins {
+                best = best.max(b.line[q].norm_sqr() as f64);
+            }
+        }
+        best
     }
 
     /// Concentrated least-squares cost `‖x − E(s) â‖²` of the components (steering vectors in

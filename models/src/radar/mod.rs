@@ -215,7 +215,10 @@ impl RadarSensor {
 
     /// RCS estimate of a detection, dBsm: the radar equation inverted at the detected range with
     /// the antenna gains at the detected angle,
-    /// `σ = P_r (4π)³ R⁴ L_sys / (P_t G_t G_r λ²)` (physics.md §1.1).
+    /// `σ = P_r (4π)³ R⁴ L_sys / (P_t G_t G_r λ²)` (physics.md §1.1). The chain reports only
+    /// detections inside its angle gate (field of view ∩ two-way main lobe,
+    /// `processing::ProcessingConfig::field_of_view_gate`), so the gain compensated is the main
+    /// lobe's.
     pub fn rcs_estimate_dbsm(&self, d: &ChainDetection) -> f64 {
         rcs_estimate_dbsm(&self.radar, &self.antennas, d)
     }
@@ -304,6 +307,9 @@ impl SensorModel for RadarSensor {
         );
         self.chain_out.clear();
         let seed = crate::lidar::splitmix64(self.seed ^ crate::lidar::splitmix64(cycle));
+        let cfg = self.handshake.config();
+        self.chain
+            .set_field_of_view(cfg.fov_horizontal_rad, cfg.fov_vertical_rad);
         self.chain.run(&self.paths, seed, &mut self.chain_out);
 
         self.detections.clear();

@@ -147,6 +147,25 @@ pub struct ProcessingConfig {
     pub angle_fft_elevation: usize,
     /// Compensate the TDM-MIMO Doppler phase of each Tx slot before the angle FFT.
     pub tdm_doppler_compensation: bool,
+    /// Resolve the TDM-MIMO Doppler ambiguity (with `tdm_doppler_compensation` and TDM-MIMO): a
+    /// range rate beyond the unambiguous ±v_max = λ/(4 N_tx T_c) folds into the Doppler spectrum
+    /// with an unknown multiple of 2 v_max, which leaves Tx slot t a phase error of 2π m t / N_tx
+    /// after the compensation; each of the N_tx hypotheses m is compensated and the one whose
+    /// beam (inside the angle gate) is strongest is kept (TI TIDUD31B "Angle estimation with
+    /// TDM-MIMO and velocity ambiguity"; Rao et al., US 2018/0011170 A1). The range rate is
+    /// reported unfolded, within ±N_tx v_max. `false`: the folded range rate compensates the slots.
+    pub velocity_disambiguation: bool,
+    /// Report only detections whose estimated direction lies inside the angle gate: the declared
+    /// field of view (`fov_horizontal_rad` × `fov_vertical_rad`, symmetric) ∩ the two-way main
+    /// lobe of the Tx and Rx patterns (`radar::antenna::Antennas::main_lobe_rad`). Outside it a
+    /// radar cannot tell a target from a sidelobe, grating-lobe or multipath-corrupted angle
+    /// estimate, and its antenna gain (the RCS estimate divides by it) is not the main lobe's;
+    /// production chains drop such points (TI mmWave SDK: the `aoaFovCfg` command,
+    /// `DPU_Aoa2dProc_AoaFovCfg` — minimum / maximum azimuth and elevation of the points exported
+    /// to the host). Sparse arrays: angle
+    /// estimates are folded into the array's unambiguous sine interval first (a grating-lobe peak
+    /// of an in-range target is reported at the target).
+    pub field_of_view_gate: bool,
     /// Detections below this processed SNR are dropped, dB.
     pub min_snr_db: f64,
     /// Several targets in one range-Doppler cell: an angle peak is reported when its beam power is
@@ -171,6 +190,8 @@ impl Default for ProcessingConfig {
             angle_fft_azimuth: 64,
             angle_fft_elevation: 16,
             tdm_doppler_compensation: true,
+            velocity_disambiguation: true,
+            field_of_view_gate: true,
             min_snr_db: f64::NEG_INFINITY,
             angle_peak_dynamic_range_db: 15.0,
             max_angle_peaks_per_cell: 4,
