@@ -278,8 +278,8 @@ fn bad_parameters_are_errors_naming_the_parameter() {
         ),
         (
             "unsupported trace format",
-            vec![(svr::string::TRACE_PATH, "views.mcap".into())],
-            vec!["parameter `trace_path`", "unsupported format `.mcap`"],
+            vec![(svr::string::TRACE_PATH, "views.bag".into())],
+            vec!["parameter `trace_path`", "unsupported format `.bag`"],
         ),
         (
             "missing scenario file",

@@ -38,7 +38,7 @@ pub const TIME_TOLERANCE_S: f64 = 1e-6;
 const TOLERANCE_NS: i64 = 1_000;
 
 /// The trace formats [`Player::trace`] reads, by file extension.
-pub const TRACE_EXTENSIONS: &[&str] = &["osi"];
+pub const TRACE_EXTENSIONS: &[&str] = &["osi", "mcap"];
 
 /// Errors of opening or playing a source.
 #[derive(Debug, thiserror::Error)]
@@ -102,8 +102,16 @@ impl Player {
 
     /// Play the SensorView trace at `path` (format by extension, [`TRACE_EXTENSIONS`]). Frames that
     /// are skipped while looking for the first usable one are described in `notes`.
-    pub fn trace(path: &Path, notes: &mut Vec<String>) -> Result<Player, PlayerError> {
-        TracePlayer::open(path, notes).map(|p| Player::Trace(Box::new(p)))
+    ///
+    /// `channel` picks the SensorView channel of an `.mcap` file: its topic, or the sensor name
+    /// whose input `osiris run` recorded (`<sensor>.OSMPSensorViewIn`); `None`: the file's only
+    /// SensorView channel. `.osi` files have one stream and ignore it.
+    pub fn trace(
+        path: &Path,
+        channel: Option<&str>,
+        notes: &mut Vec<String>,
+    ) -> Result<Player, PlayerError> {
+        TracePlayer::open(path, channel, notes).map(|p| Player::Trace(Box::new(p)))
     }
 
     /// The view at `t` s (see the module documentation); `Ok(None)` outside the recording. Skipped
@@ -212,17 +220,25 @@ struct TraceMessage {
     ns: i64,
 }
 
-/// The raw frames of a trace file, by extension.
-///
-/// `.mcap`: once `osiris_proto::trace` reads MCAP SensorView channels, one more arm here
-/// (`"mcap" => Box::new(<its SensorView frame iterator>)`) is all the player needs.
-fn open_frames(path: &Path) -> Result<Box<dyn FrameSource>, PlayerError> {
+/// The raw frames of a trace file, by extension (an `.mcap` file: the SensorView channel `channel`
+/// names, see [`Player::trace`]).
+fn open_frames(path: &Path, channel: Option<&str>) -> Result<Box<dyn FrameSource>, PlayerError> {
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
     match ext.as_str() {
         "osi" => Ok(Box::new(OsiTraceReader::open(path)?)),
+        "mcap" => {
+            let reader = osiris_proto::trace::mcap::McapTraceReader::open(path)?;
+            const SV: &str = "osi3.SensorView";
+            let topic = match channel {
+                Some(c) if reader.channel(c).is_none() => Some(format!("{c}.OSMPSensorViewIn")),
+                other => other.map(str::to_owned),
+            };
+            let id = reader.select_channel(SV, topic.as_deref())?.id;
+            Ok(Box::new(reader.messages(id)?.map(|m| m.map(|m| m.data))))
+        }
         _ => Err(PlayerError::UnsupportedTrace {
             path: path.to_path_buf(),
             ext: if ext.is_empty() {
@@ -256,8 +272,12 @@ pub struct TracePlayer {
 impl TracePlayer {
     /// Open `path` and read up to its first usable message (skipped frames are described in
     /// `notes`).
-    pub fn open(path: &Path, notes: &mut Vec<String>) -> Result<TracePlayer, PlayerError> {
-        let mut frames = open_frames(path)?;
+    pub fn open(
+        path: &Path,
+        channel: Option<&str>,
+        notes: &mut Vec<String>,
+    ) -> Result<TracePlayer, PlayerError> {
+        let mut frames = open_frames(path, channel)?;
         let mut frames_read = 0;
         let first =
             read_message(path, &mut frames, &mut frames_read, None, notes)?.ok_or_else(|| {
@@ -471,7 +491,7 @@ mod tests {
             .collect();
         let path = write_trace(dir.path(), &frames);
         let mut notes = Vec::new();
-        let mut p = Player::trace(&path, &mut notes).unwrap();
+        let mut p = Player::trace(&path, None, &mut notes).unwrap();
         assert!(notes.is_empty(), "{notes:?}");
         let mut id_at = |t: f64| -> Option<u64> {
             p.view_at(t, &mut notes)
@@ -495,8 +515,60 @@ mod tests {
         bytes.extend_from_slice(&[0xb8, 0x3e, 0x05]);
         let path = write_trace(dir.path(), std::slice::from_ref(&bytes));
         let mut notes = Vec::new();
-        let mut p = Player::trace(&path, &mut notes).unwrap();
+        let mut p = Player::trace(&path, None, &mut notes).unwrap();
         assert_eq!(p.view_at(0.0, &mut notes).unwrap().unwrap().bytes, bytes);
+    }
+
+    /// An `.mcap` with two sensors' recorded inputs: the channel is chosen by topic or by sensor
+    /// name, and without a choice the error lists both.
+    #[test]
+    fn trace_player_plays_the_chosen_mcap_channel() {
+        use osiris_proto::trace::mcap::McapTraceWriter;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("run.mcap");
+        let mut w = McapTraceWriter::create(&path).unwrap();
+        let a = w
+            .add_channel("front_radar.OSMPSensorViewIn", "osi3.SensorView", None)
+            .unwrap();
+        let b = w
+            .add_channel("front_lidar.OSMPSensorViewIn", "osi3.SensorView", None)
+            .unwrap();
+        for i in 0..3u64 {
+            let t = 5.0 + 0.1 * i as f64;
+            w.write(a, &view_at_time(t, 10 + i).encode_to_vec(), 0)
+                .unwrap();
+            w.write(b, &view_at_time(t, 20 + i).encode_to_vec(), 0)
+                .unwrap();
+        }
+        w.finish().unwrap();
+        let mut notes = Vec::new();
+        for (channel, first) in [("front_lidar", 20), ("front_radar.OSMPSensorViewIn", 10)] {
+            let mut p = Player::trace(&path, Some(channel), &mut notes).unwrap();
+            let ids: Vec<u64> = [0.0, 0.1, 0.2]
+                .iter()
+                .map(|t| {
+                    p.view_at(*t, &mut notes)
+                        .unwrap()
+                        .unwrap()
+                        .view
+                        .sensor_id
+                        .unwrap()
+                        .value
+                        .unwrap()
+                })
+                .collect();
+            assert_eq!(ids, vec![first, first + 1, first + 2], "{channel}");
+        }
+        let e = Player::trace(&path, None, &mut notes)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.contains("front_radar.OSMPSensorViewIn")
+                && e.contains("front_lidar.OSMPSensorViewIn"),
+            "{e}"
+        );
+        assert!(notes.is_empty(), "{notes:?}");
     }
 
     #[test]
@@ -511,7 +583,7 @@ mod tests {
         ];
         let path = write_trace(dir.path(), &frames);
         let mut notes = Vec::new();
-        let mut p = Player::trace(&path, &mut notes).unwrap();
+        let mut p = Player::trace(&path, None, &mut notes).unwrap();
         assert_eq!(notes.len(), 3, "{notes:?}");
         assert!(notes[0].contains("frame 0: not a SensorView"), "{notes:?}");
         assert!(
@@ -528,19 +600,22 @@ mod tests {
         assert!(e.contains("plays forward only"), "{e}");
 
         let missing = dir.path().join("missing.osi");
-        let e = Player::trace(&missing, &mut notes)
+        let e = Player::trace(&missing, None, &mut notes)
             .err()
             .unwrap()
             .to_string();
         assert!(e.contains("missing.osi"), "{e}");
-        let mcap = dir.path().join("views.mcap");
-        let e = Player::trace(&mcap, &mut notes).err().unwrap().to_string();
+        let other = dir.path().join("views.bag");
+        let e = Player::trace(&other, None, &mut notes)
+            .err()
+            .unwrap()
+            .to_string();
         assert!(
-            e.contains("unsupported format `.mcap`") && e.contains(".osi"),
+            e.contains("unsupported format `.bag`") && e.contains(".osi") && e.contains(".mcap"),
             "{e}"
         );
         std::fs::write(dir.path().join("empty.osi"), b"").unwrap();
-        let e = Player::trace(&dir.path().join("empty.osi"), &mut notes)
+        let e = Player::trace(&dir.path().join("empty.osi"), None, &mut notes)
             .err()
             .unwrap()
             .to_string();
@@ -551,7 +626,10 @@ mod tests {
         file.truncate(file.len() - 3);
         let cut = dir.path().join("cut.osi");
         std::fs::write(&cut, file).unwrap();
-        let e = Player::trace(&cut, &mut notes).err().unwrap().to_string();
+        let e = Player::trace(&cut, None, &mut notes)
+            .err()
+            .unwrap()
+            .to_string();
         assert!(e.contains("cut.osi") && e.contains("frame 1"), "{e}");
     }
 }

@@ -6,10 +6,12 @@
 //! * `scenario` (start `scenario.json`, the built-in scenario shipped in `resources/`): a JSON file
 //!   path relative to the resources directory or absolute, inline JSON starting with `{`, or empty
 //!   for the built-in scenario.
-//! * `trace_path` (start empty): a SensorView trace (`.osi`) to play instead, relative to the
+//! * `trace_path` (start empty): a SensorView trace (`.osi` or `.mcap`) to play instead, relative to the
 //!   resources directory or absolute. Setting both `scenario` and `trace_path` is an error.
 //! * `sensor` (start empty): the scenario's sensor mount whose view is played; empty: the first of
-//!   the scenario's `sensors`. Unused (a warning) for a trace.
+//!   the scenario's `sensors`. For an `.mcap` trace: the SensorView channel to play (its topic, or
+//!   the sensor whose recorded input it is, `<sensor>.OSMPSensorViewIn`; empty: the only one).
+//!   Unused (a warning) for an `.osi` trace.
 //!
 //! Time: the FMI time is the scenario's own time (step `k` at `k · step_s`) or, for a trace, the
 //! time since its first message; see [`osiris_scenario::player`].
@@ -105,14 +107,18 @@ fn build(s: &SourceSettings<'_>) -> Result<SourceBuild, String> {
                 "set either `scenario` ({scenario:?}) or `trace_path` ({trace:?}), not both"
             ));
         }
-        if let Some(sensor) = given(s.sensor) {
+        let path = resolve("trace_path", trace, s.resources_dir)?;
+        let is_mcap = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
+        let sensor = given(s.sensor);
+        if let (Some(sensor), false) = (sensor, is_mcap) {
             warnings.push(format!(
-                "parameter `sensor` = {sensor:?} is ignored: a trace plays its SensorViews as \
-                 recorded"
+                "parameter `sensor` = {sensor:?} is ignored: an .osi trace plays its SensorViews \
+                 as recorded"
             ));
         }
-        let path = resolve("trace_path", trace, s.resources_dir)?;
-        let player = Player::trace(&path, &mut warnings)
+        let player = Player::trace(&path, sensor.filter(|_| is_mcap), &mut warnings)
             .map_err(|e| format!("parameter `trace_path`: {e}"))?;
         let summary = player.describe();
         return Ok(SourceBuild {
