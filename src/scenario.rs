@@ -1843,17 +1843,36 @@ mod tests {
     fn physical_sensors_see_the_default_scenario() {
         use osiris_models::{ModelMode, StepInput, StepOutput, build_sensor};
         let c = ScenarioConfig::default();
-        let feature_ids = |sd: &osi3::SensorData| -> Vec<u64> {
-            let fd = sd.feature_data.as_ref().expect("feature data");
-            fd.radar_sensor
+        // Ground truth of every feature detection: the perception extension's (a detection's
+        // OSI `object_id` names the detected object it belongs to, not the ground truth).
+        let feature_ids = |out: &StepOutput| -> Vec<u64> {
+            let fd = out.sensor_data.feature_data.as_ref().expect("feature data");
+            let n = fd
+                .radar_sensor
                 .iter()
-                .flat_map(|r| r.detection.iter().filter_map(|d| d.object_id?.value))
-                .chain(
-                    fd.lidar_sensor
-                        .iter()
-                        .flat_map(|l| l.detection.iter().filter_map(|d| d.object_id?.value)),
-                )
-                .collect()
+                .map(|r| r.detection.len())
+                .sum::<usize>()
+                + fd.lidar_sensor
+                    .iter()
+                    .map(|l| l.detection.len())
+                    .sum::<usize>();
+            let p = &out.perception;
+            let ids: Vec<u64> = p
+                .radar
+                .iter()
+                .flat_map(|r| {
+                    r.peak.iter().map(|k| {
+                        k.object_id
+                            .and_then(|i| i.value)
+                            .unwrap_or(osiris_proto::INVALID_ID)
+                    })
+                })
+                .chain(p.lidar.iter().flat_map(|l| l.object_id.iter().copied()))
+                .collect();
+            assert_eq!(ids.len(), n, "one ground-truth id per detection");
+            let violations = osiris_models::semantics::violations(&out.sensor_data, None);
+            assert!(violations.is_empty(), "{violations:?}");
+            ids
         };
         // Radar: 6 cycles, every 10th scenario step (0.1 s apart).
         let mount = c
@@ -1879,7 +1898,7 @@ mod tests {
                     &mut out,
                 )
                 .unwrap();
-            let ids = feature_ids(&out.sensor_data);
+            let ids = feature_ids(&out);
             assert!(ids.contains(&100), "cycle {k}: radar detections {ids:?}");
             assert!(
                 !ids.contains(&102),
@@ -1916,7 +1935,7 @@ mod tests {
                 &mut out,
             )
             .unwrap();
-        let ids = feature_ids(&out.sensor_data);
+        let ids = feature_ids(&out);
         let on = |id: u64| ids.iter().filter(|&&i| i == id).count();
         // VLP-16 (2° between channels): a car at 30–40 m spans 2–3 channels.
         assert!(
