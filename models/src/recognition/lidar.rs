@@ -46,7 +46,12 @@
 //!    height and class scores are exponentially smoothed per track.
 //!
 //! Objects are reported like the ideal model (box centre, orientation and velocity relative to the
-//! sensor, reference point CENTER), for confirmed (MEASURED) and coasting (PREDICTED) tracks.
+//! sensor, reference point CENTER), for confirmed (MEASURED) and coasting (PREDICTED) tracks. Each
+//! input point of a box that updated (or started) a track reported this cycle belongs to that
+//! track ([`LidarRecognition::detection_objects`]: the OSI `object_id` of its `LidarDetection`);
+//! the output assembly splits moving and stationary objects by their ground truth
+//! ([`crate::semantics`], which reads [`LidarRecognition::reported_ground_truth`] for coasting
+//! tracks).
 
 use glam::{DVec2, DVec3};
 use osiris_proto::osi3;

@@ -38,7 +38,9 @@
 //!    from the velocity, the class's typical size, existence probability, age, mean RCS, and class
 //!    candidates from a rule-based RCS classifier: Gaussian likelihoods (σ = 5 dB, guessed) around
 //!    the ideal model's typical 77 GHz RCS (car 10, truck 20, bicycle 0, pedestrian −5 dBsm, see
-//!    [`crate::ideal::default_rcs_moving_dbsm`]), `Unknown` at a 2σ constant.
+//!    [`crate::ideal::default_rcs_moving_dbsm`]), `Unknown` at a 2σ constant. Each input detection
+//!    of a cluster that updated (or started) a track reported this cycle belongs to that track
+//!    ([`RadarRecognition::detection_objects`]: the OSI `object_id` of its `RadarDetection`).
 
 use glam::{DVec2, DVec3};
 use osiris_proto::osi3;
