@@ -219,16 +219,14 @@ fn main_job_writes_traces_that_show_the_scenario() {
             .map(|i| i.value.unwrap())
             .collect()
     };
-    let feature_ids = |sd: &osi3::SensorData| -> BTreeSet<u64> {
-        let fd = sd.feature_data.as_ref().unwrap();
-        fd.radar_sensor
+    // Ground truth of the feature detections: the PerceptionData's (radar peaks and LiDAR points
+    // are the detections, index for index); the OSI `object_id` names the detected object.
+    let feature_ids = |p: &perception::PerceptionData| -> BTreeSet<u64> {
+        p.radar
             .iter()
-            .flat_map(|r| r.detection.iter().filter_map(|d| d.object_id?.value))
-            .chain(
-                fd.lidar_sensor
-                    .iter()
-                    .flat_map(|l| l.detection.iter().filter_map(|d| d.object_id?.value)),
-            )
+            .flat_map(|r| r.peak.iter().filter_map(|k| k.object_id?.value))
+            .chain(p.lidar.iter().flat_map(|l| l.object_id.iter().copied()))
+            .filter(|&i| i != osiris_proto::INVALID_ID)
             .collect()
     };
     for mount in &scenario.sensors {
@@ -245,11 +243,19 @@ fn main_job_writes_traces_that_show_the_scenario() {
         // What the sensor saw in its first cycle: the camera's recognised objects (per frame, no
         // tracker); the radar's and LiDAR's feature detections (their trackers confirm objects
         // after a few cycles).
+        let pd_all: Vec<perception::PerceptionData> =
+            read_messages(out.path().join(format!("{}.perception.osi", mount.name))).unwrap();
+        let pd_first = &pd_all[0];
         let ids = if mount.kind == SensorKind::Camera {
             object_ids(first)
         } else {
-            feature_ids(first)
+            feature_ids(pd_first)
         };
+        // OSI 3.8.0 detection semantics in every frame (`osiris_models::semantics`).
+        for (k, sd) in frames.iter().enumerate() {
+            let v = osiris_models::semantics::violations(sd, None);
+            assert!(v.is_empty(), "{} frame {k}: {v:?}", mount.name);
+        }
         // The car 40 m ahead of the ego in the same lane (id 100) is seen by every front sensor.
         assert!(ids.contains(&100), "{}: {ids:?}", mount.name);
         // The host vehicle (id 1) is never part of its own sensors' scene.

@@ -836,23 +836,24 @@ fn end_to_end(kind: &str) {
             });
             let sd = osi3::SensorData::decode(bytes.as_slice()).unwrap();
             // Detected objects (the ideal model at once; the physical models' trackers confirm
-            // an object after a few cycles) or feature-data detections on the car.
-            let fd = sd.feature_data.clone().unwrap_or_default();
+            // an object after a few cycles) or feature-data detections on the car (their ground
+            // truth is the PerceptionData's: a detection's OSI `object_id` names the detected
+            // object it belongs to).
+            let pd = out
+                .perception
+                .as_ref()
+                .map(|p| osiris_proto::perception::PerceptionData::decode(p.as_slice()).unwrap());
             let detected: Vec<u64> = sd
                 .moving_object
                 .iter()
                 .flat_map(|o| o.header.iter().flat_map(|h| h.ground_truth_id.iter()))
                 .filter_map(|id| id.value)
-                .chain(
-                    fd.radar_sensor
+                .chain(pd.iter().flat_map(|p| {
+                    p.radar
                         .iter()
-                        .flat_map(|r| r.detection.iter().filter_map(|d| d.object_id?.value)),
-                )
-                .chain(
-                    fd.lidar_sensor
-                        .iter()
-                        .flat_map(|l| l.detection.iter().filter_map(|d| d.object_id?.value)),
-                )
+                        .flat_map(|r| r.peak.iter().filter_map(|k| k.object_id?.value))
+                        .chain(p.lidar.iter().flat_map(|l| l.object_id.iter().copied()))
+                }))
                 .collect();
             assert!(
                 detected.contains(&2),

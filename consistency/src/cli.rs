@@ -141,7 +141,7 @@ pub fn run_with_catalogue(
     eprintln!("consistency: reading {}", campaign.sensor_view.display());
     let views: Vec<osi3::SensorView> = read_trace(&campaign.sensor_view, "SensorView")?;
     let meas: Vec<osi3::SensorData> = read_trace(&campaign.sensor_data, "measured SensorData")?;
-    let (sim, model_info) = match &args.simulated {
+    let (sim, sim_truth, model_info) = match &args.simulated {
         Some(path) => {
             if !sw.is_empty() || args.model.is_some() {
                 warnings.push(
@@ -151,6 +151,7 @@ pub fn run_with_catalogue(
             }
             (
                 read_trace::<osi3::SensorData>(path, "simulated SensorData")?,
+                None,
                 ModelInfo {
                     source: "simulated-trace".into(),
                     detail: path.display().to_string(),
@@ -174,10 +175,13 @@ pub fn run_with_catalogue(
                 }
             };
             let sim = match simulator {
-                Some(f) => f(&cfg, &views),
+                Some(f) => f(&cfg, &views).map(|frames| simulate::Simulation {
+                    frames,
+                    truth: Vec::new(),
+                }),
                 None => simulate::simulate(cfg.clone(), &views, &mut progress),
             };
-            let sim = match sim {
+            let simulate::Simulation { frames: sim, truth } = match sim {
                 Ok(s) => s,
                 Err(SimulateError::NotAvailable(why)) => {
                     return Err(anyhow!(SimulateError::NotAvailable(why)))
@@ -193,6 +197,7 @@ pub fn run_with_catalogue(
             w.finish()?;
             (
                 sim,
+                (!truth.is_empty()).then_some(truth),
                 ModelInfo {
                     source: "re-simulated".into(),
                     detail: format!(
@@ -208,7 +213,14 @@ pub fn run_with_catalogue(
         }
     };
     let summary = analyse(
-        &campaign, &catalogue, &views, &meas, &sim, model_info, args, warnings,
+        &campaign,
+        &catalogue,
+        &views,
+        &meas,
+        (&sim, sim_truth.as_deref()),
+        model_info,
+        args,
+        warnings,
     )?;
     eprintln!(
         "consistency: {} — {}",
@@ -397,12 +409,12 @@ fn analyse(
     catalogue: &Catalogue,
     views: &[osi3::SensorView],
     meas: &[osi3::SensorData],
-    sim: &[osi3::SensorData],
+    (sim, sim_truth): (&[osi3::SensorData], Option<&[Vec<u64>]>),
     model: ModelInfo,
     args: &ConsistencyArgs,
     warnings: Vec<String>,
 ) -> Result<Summary> {
-    let paired = pairing::pair(campaign, views, meas, sim)?;
+    let paired = pairing::pair(campaign, views, meas, sim, sim_truth)?;
     analyse_paired(campaign, catalogue, paired, model, args, warnings)
 }
 

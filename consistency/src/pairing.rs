@@ -3,9 +3,13 @@
 //! * A measured SensorData frame pairs with the SensorView of the same timestamp (±0.5 ms); frames
 //!   missing from the measurement are counted, not errors. The simulated frame is the one with the
 //!   same timestamp.
-//! * Radar: per target and frame, the measured and the simulated detection carrying the target's
-//!   object id (nearest to the ground-truth range when several); with `method = "gating"`, or when a
-//!   trace carries no object ids, the detection nearest to the ground-truth position inside a gate.
+//! * Ground-truth ids of detections: a re-simulation's from the model's PerceptionData (every peak
+//!   and point keeps its ground-truth object); a trace's from the detections' `object_id`s
+//!   ([`truth_of_object_ids`]: OSI 3.8.0 — the id of a detected object, whose header names the
+//!   ground truth — or, naming no detected object, a ground-truth label as in measured campaigns).
+//! * Radar: per target and frame, the measured and the simulated detection of the target's
+//!   ground-truth id (nearest to the ground-truth range when several); with `method = "gating"`, or
+//!   when a trace carries no ids, the detection nearest to the ground-truth position inside a gate.
 //! * LiDAR: measured and simulated points pair by `beam_id` (same beam, same target, nearest range);
 //!   points on target per target and frame; points in depth gaps (no target, above the ground) per
 //!   frame.
@@ -336,15 +340,67 @@ fn vars(campaign: &Campaign, geom: &FrameGeom, g: &TargetGeometry) -> [f64; NVAR
 pub fn load_and_pair(campaign: &Campaign, sim: &[osi3::SensorData]) -> Result<Paired> {
     let views: Vec<osi3::SensorView> = read_trace(&campaign.sensor_view, "SensorView")?;
     let meas: Vec<osi3::SensorData> = read_trace(&campaign.sensor_data, "measured SensorData")?;
-    pair(campaign, &views, &meas, sim)
+    pair(campaign, &views, &meas, sim, None)
+}
+
+/// Ground-truth ids of detections from their `object_id`s (`ids`, feature-data order) in the
+/// SensorData `sd` they belong to, by OSI 3.8.0 semantics: an `object_id` that is the
+/// `header.tracking_id` of a detected (moving or stationary) object of `sd` stands for that
+/// object's first `header.ground_truth_id` (none if it has none); an `object_id` that names no
+/// detected object of `sd` is read as a ground-truth id itself — a *labelled* trace, as measured
+/// campaigns are: their detections annotated with the ground-truth ids of the targets (OSI 3.8.0
+/// has no other field for that). A labelled trace must therefore not also carry detected objects
+/// whose tracking ids equal ground-truth ids of other objects.
+pub fn truth_of_object_ids(
+    sd: &osi3::SensorData,
+    ids: impl Iterator<Item = Option<osi3::Identifier>>,
+) -> Vec<Option<u64>> {
+    let mut by_track: HashMap<u64, Option<u64>> = HashMap::new();
+    let headers = sd
+        .moving_object
+        .iter()
+        .map(|m| m.header.as_ref())
+        .chain(sd.stationary_object.iter().map(|s| s.header.as_ref()));
+    for h in headers.flatten() {
+        if let Some(t) = h.tracking_id.and_then(|i| i.value) {
+            by_track.insert(t, h.ground_truth_id.iter().find_map(|g| oid(Some(*g))));
+        }
+    }
+    ids.map(|i| {
+        let v = oid(i)?;
+        by_track.get(&v).copied().unwrap_or(Some(v))
+    })
+    .collect()
+}
+
+/// The ground-truth id of every detection of one sensor block (`n` detections): from `known`
+/// (`INVALID_ID` = none) when it has one entry per detection, else [`truth_of_object_ids`].
+fn detection_truth(
+    sd: &osi3::SensorData,
+    ids: impl Iterator<Item = Option<osi3::Identifier>>,
+    n: usize,
+    known: Option<&[u64]>,
+) -> Vec<Option<u64>> {
+    match known {
+        Some(k) if k.len() == n => k
+            .iter()
+            .map(|&v| (v != osiris_proto::INVALID_ID).then_some(v))
+            .collect(),
+        _ => truth_of_object_ids(sd, ids),
+    }
 }
 
 /// Pairs views, measured and simulated frames by timestamp and builds the residual rows.
+/// `sim_truth` (one entry per simulated frame, when the simulation knows it) gives the
+/// ground-truth id of each of that frame's radar or LiDAR detections (a re-simulation takes them
+/// from the model's PerceptionData, which keeps the ground truth of every peak and point);
+/// without it the ids come from the traces ([`truth_of_object_ids`]).
 pub fn pair(
     campaign: &Campaign,
     views: &[osi3::SensorView],
     meas: &[osi3::SensorData],
     sim: &[osi3::SensorData],
+    sim_truth: Option<&[Vec<u64>]>,
 ) -> Result<Paired> {
     let mut out = Paired {
         views: views.len(),
@@ -386,13 +442,11 @@ pub fn pair(
         };
         let geom = frame_geometry(campaign, &views[vi])?;
         let time_s = t as f64 * 1e-9;
+        let known = sim_truth.and_then(|t| t.get(si)).map(Vec::as_slice);
+        let sd = (&sim[si], known);
         match campaign.sensor.kind {
-            CampaignSensor::Radar => {
-                radar_frame(campaign, &geom, md, &sim[si], frame, time_s, &mut out)
-            }
-            CampaignSensor::Lidar => {
-                lidar_frame(campaign, &geom, md, &sim[si], frame, time_s, &mut out)
-            }
+            CampaignSensor::Radar => radar_frame(campaign, &geom, md, sd, frame, time_s, &mut out),
+            CampaignSensor::Lidar => lidar_frame(campaign, &geom, md, sd, frame, time_s, &mut out),
             CampaignSensor::Camera => {
                 bail!("camera campaigns are not supported yet (radar and lidar are)")
             }
@@ -429,7 +483,7 @@ fn radar_frame(
     campaign: &Campaign,
     geom: &FrameGeom,
     md: &osi3::SensorData,
-    sd: &osi3::SensorData,
+    (sd, sd_truth): (&osi3::SensorData, Option<&[u64]>),
     frame: usize,
     time_s: f64,
     out: &mut Paired,
@@ -456,12 +510,15 @@ fn radar_frame(
             }
         }
     }
-    let by_id = |list: &[osi3::RadarDetection]| list.iter().any(|d| oid(d.object_id).is_some());
+    let m_truth = detection_truth(md, m.iter().map(|d| d.object_id), m.len(), None);
+    let s_truth = detection_truth(sd, s.iter().map(|d| d.object_id), s.len(), sd_truth);
+    let by_id = |t: &[Option<u64>]| t.iter().any(Option::is_some);
     let use_ids = campaign.association.method == AssociationMethod::ObjectId;
-    let (m_ids, s_ids) = (use_ids && by_id(&m), use_ids && by_id(&s));
+    let (m_ids, s_ids) = (use_ids && by_id(&m_truth), use_ids && by_id(&s_truth));
     let mut m_used = vec![false; m.len()];
     let mut s_used = vec![false; s.len()];
     let pick = |list: &[osi3::RadarDetection],
+                truth: &[Option<u64>],
                 used: &mut [bool],
                 ids: bool,
                 g: &TargetGeometry|
@@ -475,7 +532,7 @@ fn radar_frame(
             let r = p.distance.unwrap_or(f64::NAN);
             let az = p.azimuth.unwrap_or(0.0).to_degrees();
             let cost = if ids {
-                if oid(d.object_id) != Some(g.id) {
+                if truth[i] != Some(g.id) {
                     continue;
                 }
                 (r - g.range_m).abs()
@@ -499,8 +556,8 @@ fn radar_frame(
     };
     for g in &geom.targets {
         out.counts.opportunities += 1;
-        let mi = pick(&m, &mut m_used, m_ids, g);
-        let si = pick(&s, &mut s_used, s_ids, g);
+        let mi = pick(&m, &m_truth, &mut m_used, m_ids, g);
+        let si = pick(&s, &s_truth, &mut s_used, s_ids, g);
         out.counts.meas_detected += usize::from(mi.is_some());
         out.counts.sim_detected += usize::from(si.is_some());
         let (Some(mi), Some(si)) = (mi, si) else {
@@ -558,16 +615,17 @@ fn radar_frame(
     out.counts.sim_unassociated += s_used.iter().filter(|u| !**u).count();
 }
 
-/// Which target a LiDAR point belongs to: its object id (when associating by id and present), else
-/// the target whose box (inflated by 0.2 m) contains it.
+/// Which target a LiDAR point belongs to: the target of its ground-truth id `truth` (when
+/// associating by id), else the target whose box (inflated by 0.2 m) contains it.
 fn lidar_target(
     campaign: &Campaign,
     geom: &FrameGeom,
     d: &osi3::LidarDetection,
+    truth: Option<u64>,
     use_ids: bool,
 ) -> Option<usize> {
     if use_ids {
-        if let Some(id) = oid(d.object_id) {
+        if let Some(id) = truth {
             return geom.targets.iter().position(|t| t.id == id);
         }
         return None;
@@ -624,7 +682,7 @@ fn lidar_frame(
     campaign: &Campaign,
     geom: &FrameGeom,
     md: &osi3::SensorData,
-    sd: &osi3::SensorData,
+    (sd, sd_truth): (&osi3::SensorData, Option<&[u64]>),
     frame: usize,
     time_s: f64,
     out: &mut Paired,
@@ -637,16 +695,21 @@ fn lidar_frame(
             .unwrap_or_default()
     };
     let (m, s) = (dets(md), dets(sd));
-    let has_ids = |l: &[osi3::LidarDetection]| l.iter().any(|d| oid(d.object_id).is_some());
-    let use_ids =
-        campaign.association.method == AssociationMethod::ObjectId && has_ids(&m) && has_ids(&s);
+    let m_truth = detection_truth(md, m.iter().map(|d| d.object_id), m.len(), None);
+    let s_truth = detection_truth(sd, s.iter().map(|d| d.object_id), s.len(), sd_truth);
+    let has_ids = |t: &[Option<u64>]| t.iter().any(Option::is_some);
+    let use_ids = campaign.association.method == AssociationMethod::ObjectId
+        && has_ids(&m_truth)
+        && has_ids(&s_truth);
     let m_t: Vec<Option<usize>> = m
         .iter()
-        .map(|d| lidar_target(campaign, geom, d, use_ids))
+        .zip(&m_truth)
+        .map(|(d, t)| lidar_target(campaign, geom, d, *t, use_ids))
         .collect();
     let s_t: Vec<Option<usize>> = s
         .iter()
-        .map(|d| lidar_target(campaign, geom, d, use_ids))
+        .zip(&s_truth)
+        .map(|(d, t)| lidar_target(campaign, geom, d, *t, use_ids))
         .collect();
     for (list, tg, values) in [
         (&m, &m_t, &mut out.meas_values),
@@ -878,5 +941,62 @@ fn lidar_frame(
                 x,
             });
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use osiris_proto::id;
+
+    fn object(tracking: u64, truth: &[u64]) -> osi3::DetectedMovingObject {
+        osi3::DetectedMovingObject {
+            header: Some(osi3::DetectedItemHeader {
+                tracking_id: Some(id(tracking)),
+                ground_truth_id: truth.iter().map(|&g| id(g)).collect(),
+                ..Default::default()
+            }),
+            ..Default::default()
+        }
+    }
+
+    /// OSI 3.8.0 object ids resolve through the detected objects' headers; ids that name no
+    /// detected object are ground-truth labels; unset and MAX(uint64) ids are none.
+    #[test]
+    fn object_ids_resolve_through_detected_objects_or_are_labels() {
+        let sd = osi3::SensorData {
+            moving_object: vec![object(1, &[100]), object(2, &[])],
+            stationary_object: vec![osi3::DetectedStationaryObject {
+                header: Some(osi3::DetectedItemHeader {
+                    tracking_id: Some(id(3)),
+                    ground_truth_id: vec![id(500)],
+                    ..Default::default()
+                }),
+                ..Default::default()
+            }],
+            ..Default::default()
+        };
+        let ids = [
+            Some(id(1)),
+            Some(id(3)),
+            Some(id(2)),
+            Some(id(42)),
+            None,
+            Some(id(osiris_proto::INVALID_ID)),
+        ];
+        assert_eq!(
+            truth_of_object_ids(&sd, ids.into_iter()),
+            vec![Some(100), Some(500), None, Some(42), None, None]
+        );
+        // Known per-detection truth wins when it has one entry per detection.
+        let known = [7, osiris_proto::INVALID_ID];
+        assert_eq!(
+            detection_truth(&sd, [Some(id(1)), None].into_iter(), 2, Some(&known)),
+            vec![Some(7), None]
+        );
+        assert_eq!(
+            detection_truth(&sd, [Some(id(1))].into_iter(), 1, Some(&known)),
+            vec![Some(100)]
+        );
     }
 }

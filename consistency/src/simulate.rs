@@ -82,12 +82,45 @@ pub fn model_config(
     Ok(cfg)
 }
 
-/// Runs the model over every SensorView frame; returns one SensorData per frame.
+/// What a re-simulation produced.
+#[derive(Debug, Clone, Default)]
+pub struct Simulation {
+    /// One SensorData per SensorView frame (OSI 3.8.0 semantics: a detection's `object_id` is the
+    /// tracking id of the detected object it belongs to, if any).
+    pub frames: Vec<osi3::SensorData>,
+    /// Per frame, the ground-truth id of each radar or LiDAR detection (feature-data order,
+    /// `INVALID_ID` = none), from the model's PerceptionData (radar peaks and LiDAR points are the
+    /// detections, index for index).
+    pub truth: Vec<Vec<u64>>,
+}
+
+/// The ground-truth id of each radar / LiDAR detection of a step, from its PerceptionData.
+fn detection_truth(step: &StepOutput) -> Vec<u64> {
+    let p = &step.perception;
+    if let Some(r) = p.radar.as_ref() {
+        return r
+            .peak
+            .iter()
+            .map(|k| {
+                k.object_id
+                    .and_then(|i| i.value)
+                    .unwrap_or(osiris_proto::INVALID_ID)
+            })
+            .collect();
+    }
+    p.lidar
+        .as_ref()
+        .map(|l| l.object_id.clone())
+        .unwrap_or_default()
+}
+
+/// Runs the model over every SensorView frame; returns one SensorData per frame and the
+/// ground-truth ids of their detections.
 pub fn simulate(
     config: SensorConfig,
     views: &[osi3::SensorView],
     progress: &mut dyn FnMut(usize, usize),
-) -> Result<Vec<osi3::SensorData>, SimulateError> {
+) -> Result<Simulation, SimulateError> {
     let mut model = match build_sensor(config.clone()) {
         Ok(m) => m,
         Err(ModelError::NotAvailable(why)) => return Err(SimulateError::NotAvailable(why)),
@@ -97,7 +130,10 @@ pub fn simulate(
     model
         .apply_view_configuration(&request)
         .map_err(|e| anyhow!("view configuration: {e}"))?;
-    let mut out = Vec::with_capacity(views.len());
+    let mut out = Simulation {
+        frames: Vec::with_capacity(views.len()),
+        truth: Vec::with_capacity(views.len()),
+    };
     let mut step = StepOutput::default();
     let times: Vec<f64> = views
         .iter()
@@ -143,7 +179,8 @@ pub fn simulate(
         if sd.timestamp.is_none() {
             sd.timestamp = view.timestamp;
         }
-        out.push(sd);
+        out.frames.push(sd);
+        out.truth.push(detection_truth(&step));
         progress(i + 1, views.len());
     }
     Ok(out)

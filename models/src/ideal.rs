@@ -55,11 +55,15 @@
 //!   timestamp = measurement time, channel 0, echo 0, `pulses_fired` = number of face-grid samples
 //!   tried, 905 nm).
 //! * Camera: `feature_data.camera_sensor[0]`: one `CameraDetection` (`IMAGE_SHAPE_TYPE_BOX`) per
-//!   visible body, whose `CameraPoint`s are the 8 corners of its 3D box as `Spherical3d` directions
-//!   (distance = range to the corner; corners are reported even where they fall outside the FoV for a
-//!   partially visible object), in the order `(±l/2, ±w/2, ±h/2)` of the object frame with x slowest:
-//!   `(−,−,−), (−,−,+), (−,+,−), (−,+,+), (+,−,−), …`. The ideal model renders **no image**: the
-//!   perception extension's `camera` is present with no `image`.
+//!   visible body with OSI's two `CameraPoint`s (first and third corner of an axis-aligned box):
+//!   the smallest azimuth–elevation box containing the directions of the 8 corners of its 3D box
+//!   (first = largest azimuth and elevation, second = smallest; reported even where it extends
+//!   outside the FoV for a partially visible object), both at the range of the box's point
+//!   closest to the sensor ([`crate::semantics::box_corners`]). The ideal model renders **no
+//!   image**: the perception extension's `camera` is present with no `image`.
+//! * Every detection's `object_id` is the `tracking_id` (= ground-truth id) of the detected object
+//!   it was made from, which is always reported; pedestrian candidates carry `head_pose` and
+//!   `upper_body_pose` ([`crate::semantics`], rule 3).
 //!
 //! All detections use the same sensor frame as the detected objects (physical = virtual sensor:
 //! `SensorDetectionHeader.mounting_position = SensorData.mounting_position`).
@@ -1214,10 +1218,12 @@ impl SensorModel for IdealSensor {
                         Source::Stationary(_) => (false, false, false, false),
                     };
                     let first = points.len();
-                    for c in b.obb.corners() {
+                    let range = b.obb.closest_point_to_origin().length();
+                    let corners = crate::semantics::box_corners(b.obb.corners(), range);
+                    for c in corners.into_iter().flatten() {
                         points.push(osi3::CameraPoint {
                             existence_probability: Some(s.existence),
-                            point: Some(Spherical::from_cartesian(c).to_osi()),
+                            point: Some(c.to_osi()),
                             point_rmse: None,
                         });
                     }
@@ -1232,7 +1238,9 @@ impl SensorModel for IdealSensor {
                         shape_classification_animal: Some(is_animal),
                         shape_classification_probability: Some(1.0),
                         first_point_index: Some(u32::try_from(first).unwrap_or(u32::MAX)),
-                        number_of_points: Some(8),
+                        number_of_points: Some(
+                            u32::try_from(points.len() - first).unwrap_or(u32::MAX),
+                        ),
                         ..Default::default()
                     });
                 }
@@ -1249,6 +1257,13 @@ impl SensorModel for IdealSensor {
             }
         }
         out.sensor_data.feature_data = Some(fd);
+        // Pedestrian poses (the split into moving and stationary objects is by construction).
+        crate::semantics::complete(
+            &mut out.sensor_data,
+            gt,
+            &crate::semantics::PoseFrames::new(&frame, &mounting),
+            &|_| None,
+        );
         Ok(())
     }
 

@@ -11,6 +11,8 @@
 //! * [`world`]: the per-step world of a physical model (scene, space, sensor pose, weather).
 //! * [`lidar`], [`radar`]: the physical sensor models.
 //! * [`recognition`]: detected objects from raw perception output, with tracking.
+//! * [`semantics`]: the OSI 3.8.0 detection semantics every model's output follows (detections →
+//!   detected objects, moving vs stationary, pedestrian poses, camera boxes).
 //! * [`cpu`]: run-time choice of the SIMD kernels (`OSIRIS_SIMD=portable` forces the portable ones).
 
 pub mod camera;
@@ -23,6 +25,7 @@ pub mod input;
 pub mod lidar;
 pub mod radar;
 pub mod recognition;
+pub mod semantics;
 pub mod sensor;
 pub mod space;
 pub mod special;

@@ -165,6 +165,11 @@ pub struct SensorConfig {
     /// Physical camera parameters (`kind: camera`); absent: the defaults.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub camera: Option<CameraConfig>,
+    /// Copy the input SensorView into `SensorData.sensor_view` (OSI: "the sensor view the sensor
+    /// data was derived from"), for receivers that need the ground truth with the sensor output.
+    /// Off by default: the copy is as large as the SensorView.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub include_sensor_view: bool,
 }
 
 fn default_min_visible_fraction() -> f64 {
@@ -217,6 +222,7 @@ impl SensorConfig {
             lidar: None,
             radar: None,
             camera: None,
+            include_sensor_view: false,
         }
     }
 
@@ -350,12 +356,52 @@ pub trait SensorModel: Send {
 /// Build the model a configuration asks for.
 pub fn build_sensor(config: SensorConfig) -> Result<Box<dyn SensorModel>, ModelError> {
     config.validate()?;
-    match config.mode {
-        ModelMode::Ideal => Ok(Box::new(crate::ideal::IdealSensor::new(config))),
+    let include_sensor_view = config.include_sensor_view;
+    let model: Box<dyn SensorModel> = match config.mode {
+        ModelMode::Ideal => Box::new(crate::ideal::IdealSensor::new(config)),
         ModelMode::Physical => match config.kind {
-            SensorKind::Lidar => crate::lidar::build(config),
-            SensorKind::Radar => crate::radar::build(config),
-            SensorKind::Camera => crate::camera::build(config),
+            SensorKind::Lidar => crate::lidar::build(config)?,
+            SensorKind::Radar => crate::radar::build(config)?,
+            SensorKind::Camera => crate::camera::build(config)?,
         },
+    };
+    Ok(if include_sensor_view {
+        Box::new(WithSensorView(model))
+    } else {
+        model
+    })
+}
+
+/// A model whose SensorData also carries a copy of its input SensorView
+/// (`SensorConfig::include_sensor_view`).
+struct WithSensorView(Box<dyn SensorModel>);
+
+impl SensorModel for WithSensorView {
+    fn kind(&self) -> SensorKind {
+        self.0.kind()
+    }
+    fn mode(&self) -> ModelMode {
+        self.0.mode()
+    }
+    fn config(&self) -> &SensorConfig {
+        self.0.config()
+    }
+    fn view_configuration_request(&self) -> osi3::SensorViewConfiguration {
+        self.0.view_configuration_request()
+    }
+    fn apply_view_configuration(
+        &mut self,
+        granted: &osi3::SensorViewConfiguration,
+    ) -> Result<Vec<String>, ModelError> {
+        self.0.apply_view_configuration(granted)
+    }
+    fn step(&mut self, input: &StepInput<'_>, out: &mut StepOutput) -> Result<(), ModelError> {
+        self.0.step(input, out)?;
+        out.sensor_data.sensor_view.clear();
+        out.sensor_data.sensor_view.push(input.view.clone());
+        Ok(())
+    }
+    fn reset(&mut self) {
+        self.0.reset()
     }
 }

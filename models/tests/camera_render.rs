@@ -149,6 +149,7 @@ fn sensor_config(
         lidar: None,
         radar: None,
         camera: None,
+        include_sensor_view: false,
     }
 }
 

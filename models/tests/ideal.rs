@@ -575,10 +575,11 @@ fn camera_box_corners_project_inside_the_fov() {
     );
     let cam = &out.sensor_data.feature_data.as_ref().unwrap().camera_sensor[0];
     assert_eq!(cam.detection.len(), 2);
-    assert_eq!(cam.point.len(), 16);
+    // OSI 3.8.0 box: 2 points (first and third corner of an axis-aligned box).
+    assert_eq!(cam.point.len(), 4);
     assert_eq!(
         cam.specific_header.as_ref().unwrap().number_of_valid_points,
-        Some(16)
+        Some(4)
     );
     let (hh, hv) = (30f64.to_radians(), 20f64.to_radians());
     for d in &cam.detection {
@@ -586,9 +587,9 @@ fn camera_box_corners_project_inside_the_fov() {
             d.image_shape_type,
             Some(osi3::camera_detection::ImageShapeType::Box as i32)
         );
-        assert_eq!(d.number_of_points, Some(8));
+        assert_eq!(d.number_of_points, Some(2));
         let first = d.first_point_index.unwrap() as usize;
-        for p in &cam.point[first..first + 8] {
+        for p in &cam.point[first..first + 2] {
             let q = sph(&p.point);
             assert!(q.azimuth.abs() < hh && q.elevation.abs() < hv, "{q:?}");
         }
@@ -596,17 +597,38 @@ fn camera_box_corners_project_inside_the_fov() {
         assert_eq!(d.shape_classification_pedestrian, Some(is_ped));
         assert_eq!(d.shape_classification_vehicle, Some(!is_ped));
     }
-    // The first corner of the car is (−l/2, −w/2, −h/2) in its frame.
-    let c0 = DVec3::new(30.0, 3.0, 0.0)
-        + rotation_from_rpy(0.0, 0.0, 0.3) * DVec3::new(-2.25, -0.9, -0.75);
+    // The car's top-left point: the largest azimuth and elevation of its 8 corners; the
+    // bottom-right one the smallest (sensor at the origin, so the corners' own spherical angles).
+    let corner = |s: [f64; 3]| {
+        Spherical::from_cartesian(
+            DVec3::new(30.0, 3.0, 0.0)
+                + rotation_from_rpy(0.0, 0.0, 0.3)
+                    * (DVec3::new(2.25, 0.9, 0.75) * DVec3::from_array(s)),
+        )
+    };
+    let mut az = Vec::new();
+    let mut el = Vec::new();
+    for k in 0..8 {
+        let s = |b: usize| if k & b != 0 { 1.0 } else { -1.0 };
+        let c = corner([s(4), s(2), s(1)]);
+        az.push(c.azimuth);
+        el.push(c.elevation);
+    }
     let first = cam
         .detection
         .iter()
         .find(|d| d.object_id == Some(id(4)))
         .unwrap()
         .first_point_index
-        .unwrap();
-    assert!((sph(&cam.point[first as usize].point).to_cartesian() - c0).length() < 1e-9);
+        .unwrap() as usize;
+    let (p0, p1) = (
+        sph(&cam.point[first].point),
+        sph(&cam.point[first + 1].point),
+    );
+    let max = |v: &[f64]| v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let min = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!((p0.azimuth - max(&az)).abs() < 1e-12 && (p0.elevation - max(&el)).abs() < 1e-12);
+    assert!((p1.azimuth - min(&az)).abs() < 1e-12 && (p1.elevation - min(&el)).abs() < 1e-12);
     assert!(out.perception.camera.as_ref().unwrap().image.is_empty());
 }
 

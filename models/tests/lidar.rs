@@ -141,6 +141,7 @@ fn config(lidar: LidarConfig, effects: EffectSwitches) -> SensorConfig {
         lidar: Some(lidar),
         radar: None,
         camera: None,
+        include_sensor_view: false,
     }
 }
 

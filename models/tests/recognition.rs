@@ -796,3 +796,127 @@ fn tracks_survive_a_rebased_fixed_frame() {
         "{ids:?}"
     );
 }
+
+// ------------------------------------------------------------------------------------------------
+// Detections → detected objects (OSI 3.8.0 `object_id` semantics)
+
+/// The tracking id of the reported object whose ground truth is `gt`.
+fn tracking_id_of(out: &[osi3::DetectedMovingObject], gt: u64) -> Option<u64> {
+    out.iter()
+        .find(|o| {
+            o.header
+                .as_ref()
+                .unwrap()
+                .ground_truth_id
+                .iter()
+                .any(|i| i.value == Some(gt))
+        })
+        .and_then(|o| o.header.as_ref().unwrap().tracking_id?.value)
+}
+
+/// A LiDAR point belongs to the reported object whose box it was part of: none before the track
+/// is confirmed (M = 3 of N = 5), the car's tracking id afterwards; ground points never.
+#[test]
+fn lidar_points_refer_to_the_reported_object_of_their_cluster() {
+    let mut rec = LidarRecognition::new(&LidarRecognitionConfig::default()).unwrap();
+    let sensor = DVec3::new(0.0, 0.0, SENSOR_HEIGHT_M);
+    let car = Boxx::on_ground(0.0, DVec2::new(15.0, 2.0), 0.2, CAR, 7);
+    let mut out = Vec::new();
+    for s in 0..4 {
+        out.clear();
+        let pts = lidar_scan(sensor, [0.0; 3], &[car], s);
+        rec.step(
+            &ego(0.1 * s as f64, sensor, 0.0, DVec3::ZERO),
+            &pts,
+            &mut out,
+        );
+        let objs = rec.detection_objects();
+        assert_eq!(objs.len(), pts.len());
+        let on_ground: Vec<_> = (0..pts.len())
+            .filter(|&i| pts[i].object_id == osiris_proto::INVALID_ID)
+            .collect();
+        assert!(on_ground.len() > 1000);
+        assert!(on_ground.iter().all(|&i| objs[i].is_none()), "step {s}");
+        let on_car: Vec<_> = (0..pts.len()).filter(|&i| pts[i].object_id == 7).collect();
+        assert!(on_car.len() > 100, "{}", on_car.len());
+        if s < 2 {
+            // Tentative: nothing reported, nothing associated.
+            assert!(out.is_empty(), "step {s}: {out:?}");
+            assert!(objs.iter().all(Option::is_none), "step {s}");
+        } else {
+            let tid = tracking_id_of(&out, 7).expect("the car is reported");
+            // Car points more than 0.2 m above the road (ground segmentation removes those within
+            // 0.15 m of the plane, noise 2 cm) are all the car's.
+            let height = |i: usize| SENSOR_HEIGHT_M + pts[i].position_m.z;
+            let above: Vec<_> = on_car
+                .iter()
+                .copied()
+                .filter(|&i| height(i) > 0.2)
+                .collect();
+            let n = above.iter().filter(|&&i| objs[i] == Some(tid)).count();
+            assert_eq!(
+                n,
+                above.len(),
+                "step {s}: {n} of {} car points",
+                above.len()
+            );
+            assert!(above.len() * 10 > on_car.len() * 8);
+            // Every associated point names a reported object.
+            assert!(objs.iter().flatten().all(|&t| t == tid));
+            assert_eq!(rec.reported_ground_truth(), &[(tid, Some(7))]);
+        }
+    }
+    // The car gone: the coasting track is still reported (PREDICTED) with no points and no ground
+    // truth in its header, but its last ground truth is kept for the output assembly.
+    out.clear();
+    let pts = lidar_scan(sensor, [0.0; 3], &[], 9);
+    rec.step(&ego(0.4, sensor, 0.0, DVec3::ZERO), &pts, &mut out);
+    assert_eq!(out.len(), 1);
+    let h = out[0].header.as_ref().unwrap();
+    assert!(h.ground_truth_id.is_empty());
+    assert_eq!(
+        rec.reported_ground_truth(),
+        &[(h.tracking_id.unwrap().value.unwrap(), Some(7))]
+    );
+    assert!(rec.detection_objects().iter().all(Option::is_none));
+}
+
+/// A radar detection belongs to the reported object whose cluster it was part of; stationary
+/// clutter (not tracked by default) and a below-ground ghost belong to none.
+#[test]
+fn radar_detections_refer_to_the_reported_object_of_their_cluster() {
+    let mut rec = RadarRecognition::new(&RadarRecognitionConfig::default()).unwrap();
+    let mut out = Vec::new();
+    let v_t = DVec3::new(5.0, 0.0, 0.0);
+    for s in 0..5 {
+        let t = 0.05 * s as f64;
+        let e = ego(t, DVec3::new(0.0, 0.0, 0.5), 0.0, DVec3::ZERO);
+        let c = DVec3::new(20.0, 2.0, 0.5) + v_t * t;
+        let mut dets: Vec<_> = [-0.6, 0.0, 0.6]
+            .iter()
+            .map(|dy| detection_of(&e, c + DVec3::new(0.0, *dy, 0.0), v_t, 10.0, 1))
+            .collect();
+        // Stationary clutter (a post) and a below-ground mirror image of the car.
+        dets.push(detection_of(
+            &e,
+            DVec3::new(30.0, -8.0, 0.5),
+            DVec3::ZERO,
+            0.0,
+            2,
+        ));
+        dets.push(detection_of(&e, c - DVec3::new(0.0, 0.0, 3.0), v_t, 0.0, 1));
+        out.clear();
+        rec.step(&e, &dets, &mut out);
+        let objs = rec.detection_objects();
+        assert_eq!(objs.len(), dets.len());
+        assert_eq!(&objs[3..], &[None, None], "step {s}");
+        match tracking_id_of(&out, 1) {
+            None => {
+                assert!(s < 2, "step {s}: the target is not reported: {out:?}");
+                assert!(objs.iter().all(Option::is_none));
+            }
+            Some(tid) => assert_eq!(&objs[..3], &[Some(tid); 3], "step {s}"),
+        }
+    }
+    assert!(tracking_id_of(&out, 1).is_some());
+}

@@ -22,6 +22,9 @@
 //! * Vehicles carry `vehicle_attributes` (`bbcenter_to_rear`/`bbcenter_to_front` in the object frame,
 //!   from typical overhangs, wheelbases and wheel radii) and `vehicle_classification`; pedestrians do
 //!   not. Cyclists are OSI vehicles of class `BICYCLE` (rider included in the box).
+//! * Pedestrians carry `pedestrian_attributes` ([`pedestrian_attributes`]): an upright adult skeleton
+//!   of all 20 OSI bones scaled to the box height, arms hanging, head turned 20° to the left (a
+//!   pedestrian glancing at the traffic beside them); a still pose (no gait cycle).
 //! * Ground-truth ids are stable over time: ego `1` (or `ego.id`), road users `100 + i`, static objects
 //!   `500 + i`, guardrail `900`, lanes `1000 + i` (`i = 0..lanes`, then the shoulder), lane boundaries
 //!   `2000 + j` (`j = 0..=lanes` from right to left, then the road edge). Explicit `id`s override the
@@ -942,6 +945,8 @@ impl ScenarioConfig {
                 assigned_lane_percentage: vec![100.0],
                 ..Default::default()
             }),
+            pedestrian_attributes: (u.kind == RoadUserKind::Pedestrian)
+                .then(|| pedestrian_attributes(dim[2])),
             ..Default::default()
         }
     }
@@ -1382,6 +1387,115 @@ pub fn benchmark_view(n_objects: usize) -> osi3::SensorView {
     c.sensor_view(0, &radar)
 }
 
+/// Yaw of the scenario pedestrians' head relative to their body, rad (20° to the left).
+pub const PEDESTRIAN_HEAD_YAW_RAD: f64 = 0.349_065_850_398_865_9;
+
+/// The OSI skeleton of an upright adult of height `height_m` (the box height).
+///
+/// * Joint heights as fractions of the body height H from Winter's anthropometric table (D. A.
+///   Winter, "Biomechanics and Motor Control of Human Movement", 4th ed., Wiley 2009, Fig. 4.1):
+///   hip joint 0.530 H, shoulder 0.818 H, chin 0.870 H, elbow 0.630 H, wrist 0.485 H, knee
+///   0.285 H, ankle 0.039 H; shoulder width 0.259 H (biacromial), foot length 0.152 H, hand length
+///   0.108 H. Hip joints ±0.05 H from the mid-line, spine split at 0.60 H and 0.70 H (guessed).
+/// * The **root** is the pelvis centre (between the hip joints): `bbcenter_to_root` = (0, 0,
+///   0.530 H − H/2) in the object frame. Bone positions are relative to it, object axes (x forward,
+///   y left, z up). OSI: "a bone's position and orientation is defined by the end-point closer to
+///   the root", so a bone's position is its proximal joint and its `length` the distance to the next.
+/// * Orientations (root frame) as osiris reads them (`osiris_models::semantics`, rule 3): an
+///   anatomical frame with x anterior and z along the bone towards its far end. Upward bones
+///   (hip, spine, neck) are the identity; the head is yawed by [`PEDESTRIAN_HEAD_YAW_RAD`];
+///   hanging arms and legs are rolled by π (z down, x still anterior); shoulders point sideways
+///   (roll ∓π/2); feet point forward (pitch π/2).
+pub fn pedestrian_attributes(height_m: f64) -> osi3::moving_object::PedestrianAttributes {
+    use osi3::moving_object::PedestrianAttributes;
+    use osi3::moving_object::pedestrian_attributes::Bone;
+    use osi3::moving_object::pedestrian_attributes::bone::Type as B;
+    use std::f64::consts::{FRAC_PI_2, PI};
+    let h = height_m;
+    let hip = 0.530 * h;
+    // Heights above the root.
+    let z = |frac: f64| frac * h - hip;
+    let (shoulder_y, hip_y) = (0.5 * 0.259 * h, 0.05 * h);
+    let bone = |t: B, p: [f64; 3], rpy: [f64; 3], length: f64| Bone {
+        r#type: Some(t as i32),
+        position: Some(vec3(p)),
+        orientation: Some(osi3::Orientation3d {
+            roll: Some(rpy[0]),
+            pitch: Some(rpy[1]),
+            yaw: Some(rpy[2]),
+        }),
+        length: Some(length as f32),
+        missing: Some(false),
+        ..Default::default()
+    };
+    let up = [0.0; 3];
+    let down = [PI, 0.0, 0.0];
+    let mut bones = vec![
+        bone(B::Root, [0.0; 3], up, 0.0),
+        bone(B::Hip, [0.0; 3], up, z(0.60)),
+        bone(B::LowerSpine, [0.0, 0.0, z(0.60)], up, 0.10 * h),
+        bone(B::UpperSpine, [0.0, 0.0, z(0.70)], up, z(0.818) - z(0.70)),
+        bone(B::Neck, [0.0, 0.0, z(0.818)], up, z(0.870) - z(0.818)),
+        bone(
+            B::Head,
+            [0.0, 0.0, z(0.870)],
+            [0.0, 0.0, PEDESTRIAN_HEAD_YAW_RAD],
+            h - 0.870 * h,
+        ),
+    ];
+    for (side, sy) in [(0usize, 1.0f64), (1, -1.0)] {
+        let pick = |l: B, r: B| if side == 0 { l } else { r };
+        bones.extend([
+            bone(
+                pick(B::ShoulderL, B::ShoulderR),
+                [0.0, 0.0, z(0.818)],
+                [-sy * FRAC_PI_2, 0.0, 0.0],
+                shoulder_y,
+            ),
+            bone(
+                pick(B::UpperArmL, B::UpperArmR),
+                [0.0, sy * shoulder_y, z(0.818)],
+                down,
+                (0.818 - 0.630) * h,
+            ),
+            bone(
+                pick(B::LowerArmL, B::LowerArmR),
+                [0.0, sy * shoulder_y, z(0.630)],
+                down,
+                (0.630 - 0.485) * h,
+            ),
+            bone(
+                pick(B::FullHandL, B::FullHandR),
+                [0.0, sy * shoulder_y, z(0.485)],
+                down,
+                0.108 * h,
+            ),
+            bone(
+                pick(B::UpperLegL, B::UpperLegR),
+                [0.0, sy * hip_y, 0.0],
+                down,
+                (0.530 - 0.285) * h,
+            ),
+            bone(
+                pick(B::LowerLegL, B::LowerLegR),
+                [0.0, sy * hip_y, z(0.285)],
+                down,
+                (0.285 - 0.039) * h,
+            ),
+            bone(
+                pick(B::FullFootL, B::FullFootR),
+                [0.0, sy * hip_y, z(0.039)],
+                [0.0, FRAC_PI_2, 0.0],
+                0.152 * h,
+            ),
+        ]);
+    }
+    PedestrianAttributes {
+        bbcenter_to_root: Some(vec3([0.0, 0.0, hip - 0.5 * h])),
+        skeleton_bone: bones,
+    }
+}
+
 fn vec3(a: [f64; 3]) -> osi3::Vector3d {
     osi3::Vector3d {
         x: Some(a[0]),
@@ -1477,6 +1591,46 @@ mod tests {
             .find(|o| o.r#type == Some(osi3::moving_object::Type::Pedestrian as i32))
             .unwrap();
         assert!(ped.vehicle_attributes.is_none() && ped.vehicle_classification.is_none());
+        // The skeleton: all 20 OSI bones once, the root at the pelvis inside the box, the head
+        // above the shoulders and below the top of the box, the feet at the ground.
+        let pa = ped.pedestrian_attributes.as_ref().unwrap();
+        let h = ped
+            .base
+            .as_ref()
+            .unwrap()
+            .dimension
+            .unwrap()
+            .height
+            .unwrap();
+        let mut types: Vec<i32> = pa.skeleton_bone.iter().map(|b| b.r#type.unwrap()).collect();
+        types.sort();
+        assert_eq!(types, (0..20).collect::<Vec<_>>());
+        let root_z = pa.bbcenter_to_root.unwrap().z.unwrap();
+        assert!((root_z + 0.5 * h - 0.530 * h).abs() < 1e-12, "{root_z}");
+        let bone = |t: osi3::moving_object::pedestrian_attributes::bone::Type| {
+            pa.skeleton_bone
+                .iter()
+                .find(|b| b.r#type == Some(t as i32))
+                .unwrap()
+        };
+        use osi3::moving_object::pedestrian_attributes::bone::Type as B;
+        let above_ground = |b: &osi3::moving_object::pedestrian_attributes::Bone| {
+            b.position.unwrap().z.unwrap() + root_z + 0.5 * h
+        };
+        let head = bone(B::Head);
+        let top = above_ground(head) + f64::from(head.length.unwrap());
+        assert!((top - h).abs() < 1e-6, "head top {top} vs height {h}");
+        assert!(above_ground(head) > above_ground(bone(B::UpperArmL)));
+        let foot = above_ground(bone(B::FullFootR));
+        assert!((0.0..0.1).contains(&foot), "{foot}");
+        assert!(
+            (head.orientation.unwrap().yaw.unwrap() - PEDESTRIAN_HEAD_YAW_RAD).abs() < 1e-12
+                && (PEDESTRIAN_HEAD_YAW_RAD.to_degrees() - 20.0).abs() < 1e-9
+        );
+        // Shoulder joints 0.259 H apart (Winter's biacromial breadth).
+        let (l, r) = (bone(B::UpperArmL), bone(B::UpperArmR));
+        let w = l.position.unwrap().y.unwrap() - r.position.unwrap().y.unwrap();
+        assert!((w - 0.259 * h).abs() < 1e-12, "{w}");
         let env = gt.environmental_conditions.as_ref().unwrap();
         assert_eq!(
             env.time_of_day.unwrap().seconds_since_midnight,
@@ -1707,17 +1861,36 @@ mod tests {
     fn physical_sensors_see_the_default_scenario() {
         use osiris_models::{ModelMode, StepInput, StepOutput, build_sensor};
         let c = ScenarioConfig::default();
-        let feature_ids = |sd: &osi3::SensorData| -> Vec<u64> {
-            let fd = sd.feature_data.as_ref().expect("feature data");
-            fd.radar_sensor
+        // Ground truth of every feature detection: the perception extension's (a detection's
+        // OSI `object_id` names the detected object it belongs to, not the ground truth).
+        let feature_ids = |out: &StepOutput| -> Vec<u64> {
+            let fd = out.sensor_data.feature_data.as_ref().expect("feature data");
+            let n = fd
+                .radar_sensor
                 .iter()
-                .flat_map(|r| r.detection.iter().filter_map(|d| d.object_id?.value))
-                .chain(
-                    fd.lidar_sensor
-                        .iter()
-                        .flat_map(|l| l.detection.iter().filter_map(|d| d.object_id?.value)),
-                )
-                .collect()
+                .map(|r| r.detection.len())
+                .sum::<usize>()
+                + fd.lidar_sensor
+                    .iter()
+                    .map(|l| l.detection.len())
+                    .sum::<usize>();
+            let p = &out.perception;
+            let ids: Vec<u64> = p
+                .radar
+                .iter()
+                .flat_map(|r| {
+                    r.peak.iter().map(|k| {
+                        k.object_id
+                            .and_then(|i| i.value)
+                            .unwrap_or(osiris_proto::INVALID_ID)
+                    })
+                })
+                .chain(p.lidar.iter().flat_map(|l| l.object_id.iter().copied()))
+                .collect();
+            assert_eq!(ids.len(), n, "one ground-truth id per detection");
+            let violations = osiris_models::semantics::violations(&out.sensor_data, None);
+            assert!(violations.is_empty(), "{violations:?}");
+            ids
         };
         // Radar: 6 cycles, every 10th scenario step (0.1 s apart).
         let mount = c
@@ -1743,7 +1916,7 @@ mod tests {
                     &mut out,
                 )
                 .unwrap();
-            let ids = feature_ids(&out.sensor_data);
+            let ids = feature_ids(&out);
             assert!(ids.contains(&100), "cycle {k}: radar detections {ids:?}");
             assert!(
                 !ids.contains(&102),
@@ -1780,7 +1953,7 @@ mod tests {
                 &mut out,
             )
             .unwrap();
-        let ids = feature_ids(&out.sensor_data);
+        let ids = feature_ids(&out);
         let on = |id: u64| ids.iter().filter(|&&i| i == id).count();
         // VLP-16 (2° between channels): a car at 30–40 m spans 2–3 channels.
         assert!(

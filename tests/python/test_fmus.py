@@ -446,13 +446,22 @@ def assert_no_unknown_fields(msg, path="$"):
 
 
 def detection_object_ids(kind: str, data: sd.SensorData, scene: Scene) -> list[int | None]:
-    """The ground-truth object each feature-data detection of the sensor's kind belongs to."""
+    """The ground-truth object each feature-data detection of the sensor's kind belongs to.
+
+    OSI 3.8.0: a detection's ``object_id`` is the ``tracking_id`` of the detected object it is
+    associated to; that object's header names the ground truth. A detection of no detected object
+    is placed by its direction."""
+    truth = {
+        o.header.tracking_id.value: (o.header.ground_truth_id[0].value if o.header.ground_truth_id else None)
+        for o in list(data.moving_object) + list(data.stationary_object)
+    }
     ids = []
     for block in getattr(data.feature_data, FEATURE_LIST[kind]):
         if kind == "camera":
             for det in block.detection:
                 if det.HasField("object_id"):
-                    ids.append(det.object_id.value)
+                    assert det.object_id.value in truth, f"camera detection of no detected object {det.object_id.value}"
+                    ids.append(truth[det.object_id.value])
                 else:
                     first = det.first_point_index
                     pts = block.point[first : first + det.number_of_points]
@@ -462,7 +471,8 @@ def detection_object_ids(kind: str, data: sd.SensorData, scene: Scene) -> list[i
         else:
             for det in block.detection:
                 if det.HasField("object_id"):
-                    ids.append(det.object_id.value)
+                    assert det.object_id.value in truth, f"{kind} detection of no detected object {det.object_id.value}"
+                    ids.append(truth[det.object_id.value])
                 else:
                     ids.append(scene.object_at_azimuth(det.position.distance, det.position.azimuth))
     return ids

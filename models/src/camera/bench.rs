@@ -257,6 +257,7 @@ pub fn bench_config(scene: &CameraBenchScene) -> SensorConfig {
         lidar: None,
         radar: None,
         camera: Some(camera),
+        include_sensor_view: false,
     }
 }
 

@@ -594,11 +594,12 @@ impl SensorModel for CameraSensor {
                 ..Default::default()
             });
         }
-        // Feature data: one box-shaped CameraDetection per recognised object, its four corners as
-        // directions (with the estimated distance) in the sensor frame (as the ideal model writes
-        // its box corners).
+        // Feature data: one box-shaped CameraDetection per recognised object with OSI's two points
+        // (first and third corner of an axis-aligned box): the smallest azimuth–elevation box
+        // containing the directions of the image box's four corners, at the estimated distance
+        // (`crate::semantics::box_corners`).
         let mut dets = Vec::with_capacity(b.divp.len());
-        let mut points = Vec::with_capacity(4 * b.divp.len());
+        let mut points = Vec::with_capacity(2 * b.divp.len());
         for o in &b.divp {
             let (Some(u0), Some(v0), Some(u1), Some(v1)) = (
                 o.box_u_min_px,
@@ -613,17 +614,18 @@ impl SensorModel for CameraSensor {
                 .unwrap_or(0.0)
                 .hypot(o.lateral_distance_m.unwrap_or(0.0));
             let first = points.len();
-            for (u, v) in [(u0, v0), (u1, v0), (u1, v1), (u0, v1)] {
-                if let Some(d) = chain.lens.unproject(glam::DVec2::new(u, v)) {
-                    points.push(osi3::CameraPoint {
-                        existence_probability: o.detection_probability,
-                        point: Some(
-                            crate::frames::Spherical::from_cartesian(d.normalize() * range_m)
-                                .to_osi(),
-                        ),
-                        point_rmse: None,
-                    });
-                }
+            let corners = [(u0, v0), (u1, v0), (u1, v1), (u0, v1)]
+                .into_iter()
+                .filter_map(|(u, v)| chain.lens.unproject(glam::DVec2::new(u, v)));
+            let Some(corners) = crate::semantics::box_corners(corners, range_m) else {
+                continue;
+            };
+            for c in corners {
+                points.push(osi3::CameraPoint {
+                    existence_probability: o.detection_probability,
+                    point: Some(c.to_osi()),
+                    point_rmse: None,
+                });
             }
             let is_vehicle = o.type_code.is_some_and(|t| t <= 10);
             let is_pedestrian = o.type_code.is_some_and(|t| (101..=103).contains(&t));
@@ -662,6 +664,14 @@ impl SensorModel for CameraSensor {
         frame.fill_sensor_data_header(sd, cycle);
         sd.moving_object = moving;
         sd.feature_data = Some(feature_data);
+        // The camera has no tracker: tracking id = ground-truth id, and a detection's object_id
+        // (the recognised object's) is that id too (`crate::semantics`, rule 1).
+        crate::semantics::complete(
+            sd,
+            gt,
+            &crate::semantics::PoseFrames::new(&frame.frame, &frame.mounting),
+            &|_| None,
+        );
         let p = &mut out.perception;
         p.osi_version = Some(interface_version());
         p.extension_version = Some(osiris_proto::PERCEPTION_EXTENSION_VERSION.to_string());

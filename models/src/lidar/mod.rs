@@ -845,7 +845,9 @@ impl SensorModel for LidarSensor {
             cloud.object_id.push(p.object_id);
             dets.push(osi3::LidarDetection {
                 existence_probability: Some(1.0),
-                object_id: (p.object_id != osiris_proto::INVALID_ID).then(|| id(p.object_id)),
+                // The detected object it belongs to, set after recognition (OSI 3.8.0 semantics,
+                // `crate::semantics`); the ground truth stays in the point cloud's `object_id`.
+                object_id: None,
                 position: Some(Spherical::from_cartesian(p.position_m).to_osi()),
                 intensity: Some(pct(p.intensity)),
                 // OSI `echo_pulse_width` is a length (m): c·τ/2 of the echo's width in time.
@@ -874,6 +876,9 @@ impl SensorModel for LidarSensor {
             sensor_angular_velocity_rad_s: frame.sensor_angular_velocity_rad_s,
         };
         self.recognition.step(&ego, &self.points, &mut moving);
+        for (d, o) in dets.iter_mut().zip(self.recognition.detection_objects()) {
+            d.object_id = o.map(id);
+        }
 
         let sd = &mut out.sensor_data;
         frame.fill_sensor_data_header(sd, cycle);
@@ -887,6 +892,15 @@ impl SensorModel for LidarSensor {
             ..Default::default()
         });
         sd.moving_object = moving;
+        if let Some(gt) = input.view.global_ground_truth.as_ref() {
+            let reported = self.recognition.reported_ground_truth();
+            crate::semantics::complete(
+                sd,
+                gt,
+                &crate::semantics::PoseFrames::new(&frame.frame, &frame.mounting),
+                &|t| reported.iter().find(|r| r.0 == t).and_then(|r| r.1),
+            );
+        }
         let p = &mut out.perception;
         p.osi_version = Some(interface_version());
         p.extension_version = Some(osiris_proto::PERCEPTION_EXTENSION_VERSION.to_string());

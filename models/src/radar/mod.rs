@@ -323,7 +323,9 @@ impl SensorModel for RadarSensor {
             };
             dets.push(osi3::RadarDetection {
                 existence_probability: Some(existence_from_snr(d.snr_db)),
-                object_id: oid,
+                // The detected object it belongs to, set after recognition (OSI 3.8.0 semantics,
+                // `crate::semantics`); the ground truth stays in the perception peak.
+                object_id: None,
                 position: Some(sph.to_osi()),
                 // OSI: radial velocity positive towards the sensor (see ideal.rs).
                 radial_velocity: Some(-d.range_rate_m_s),
@@ -358,6 +360,9 @@ impl SensorModel for RadarSensor {
             sensor_angular_velocity_rad_s: frame.sensor_angular_velocity_rad_s,
         };
         self.recognition.step(&ego, &self.detections, &mut moving);
+        for (d, o) in dets.iter_mut().zip(self.recognition.detection_objects()) {
+            d.object_id = o.map(id);
+        }
 
         let sd = &mut out.sensor_data;
         frame.fill_sensor_data_header(sd, cycle);
@@ -371,6 +376,15 @@ impl SensorModel for RadarSensor {
             ..Default::default()
         });
         sd.moving_object = moving;
+        if let Some(gt) = input.view.global_ground_truth.as_ref() {
+            let reported = self.recognition.reported_ground_truth();
+            crate::semantics::complete(
+                sd,
+                gt,
+                &crate::semantics::PoseFrames::new(&frame.frame, &frame.mounting),
+                &|t| reported.iter().find(|r| r.0 == t).and_then(|r| r.1),
+            );
+        }
         let w = &self.radar.waveform;
         let rd_map = self.radar.emit_range_doppler_map.then(|| {
             let m = self.chain.range_doppler_map();

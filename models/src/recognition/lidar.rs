@@ -46,7 +46,12 @@
 //!    height and class scores are exponentially smoothed per track.
 //!
 //! Objects are reported like the ideal model (box centre, orientation and velocity relative to the
-//! sensor, reference point CENTER), for confirmed (MEASURED) and coasting (PREDICTED) tracks.
+//! sensor, reference point CENTER), for confirmed (MEASURED) and coasting (PREDICTED) tracks. Each
+//! input point of a box that updated (or started) a track reported this cycle belongs to that
+//! track ([`LidarRecognition::detection_objects`]: the OSI `object_id` of its `LidarDetection`);
+//! the output assembly splits moving and stationary objects by their ground truth
+//! ([`crate::semantics`], which reads [`LidarRecognition::reported_ground_truth`] for coasting
+//! tracks).
 
 use glam::{DVec2, DVec3};
 use osiris_proto::osi3;
@@ -242,6 +247,17 @@ pub struct LidarRecognition {
     // Scratch buffers reused across steps.
     fixed: Vec<DVec3>,
     fixed_ids: Vec<u64>,
+    /// Input index of each `fixed` point.
+    fixed_src: Vec<u32>,
+    /// Per input point: the index of its box in `boxes` (`u32::MAX`: none).
+    point_box: Vec<u32>,
+    /// Per box: the id of the track it updated or started this cycle, kept only when that track is
+    /// reported.
+    box_track: Vec<Option<u64>>,
+    /// Per input point: the tracking id of the reported object it belongs to.
+    detection_objects: Vec<Option<u64>>,
+    /// (tracking id, ground truth of its last update) of the objects reported by the last step.
+    reported: Vec<(u64, Option<u64>)>,
     keep: Vec<u32>,
     keys: Vec<(u64, u32)>,
     label: Vec<u32>,
@@ -265,6 +281,11 @@ impl LidarRecognition {
             frame_jump: common::FrameJump::default(),
             fixed: Vec::new(),
             fixed_ids: Vec::new(),
+            fixed_src: Vec::new(),
+            point_box: Vec::new(),
+            box_track: Vec::new(),
+            detection_objects: Vec::new(),
+            reported: Vec::new(),
             keep: Vec::new(),
             keys: Vec::new(),
             label: Vec::new(),
@@ -300,6 +321,25 @@ impl LidarRecognition {
     ) {
         self.detect(ego, points);
         self.track(ego, out);
+        self.detection_objects.clear();
+        self.detection_objects.extend(
+            self.point_box
+                .iter()
+                .map(|&b| self.box_track.get(b as usize).copied().flatten()),
+        );
+    }
+
+    /// Per input point of the last [`LidarRecognition::step`] (same order): the `tracking_id` of
+    /// the reported object whose box the point was part of, `None` when the point belongs to no
+    /// reported object (ground, a dropped cluster, a tentative track).
+    pub fn detection_objects(&self) -> &[Option<u64>] {
+        &self.detection_objects
+    }
+
+    /// `(tracking id, ground-truth id of its last update)` of every object the last step reported
+    /// (a coasting track keeps the ground truth of its last update here, while its header has none).
+    pub fn reported_ground_truth(&self) -> &[(u64, Option<u64>)] {
+        &self.reported
     }
 
     /// Steps 1–6 of the pipeline: the boxes of this step (see [`LidarRecognition::boxes`]).
@@ -307,11 +347,15 @@ impl LidarRecognition {
         let cfg = self.config.clone();
         self.fixed.clear();
         self.fixed_ids.clear();
-        for p in points {
+        self.fixed_src.clear();
+        self.point_box.clear();
+        self.point_box.resize(points.len(), u32::MAX);
+        for (k, p) in points.iter().enumerate() {
             let q = ego.sensor_pose.transform_point(p.position_m);
             if q.is_finite() {
                 self.fixed.push(q);
                 self.fixed_ids.push(p.object_id);
+                self.fixed_src.push(k as u32);
             }
         }
         self.ground = fit_ground(
@@ -402,6 +446,10 @@ impl LidarRecognition {
             self.ids
                 .extend(self.cluster.iter().map(|&i| self.fixed_ids[i as usize]));
             let gt = common::most_frequent_id(&mut self.ids);
+            let b = self.boxes.len() as u32;
+            for &i in &self.cluster {
+                self.point_box[self.fixed_src[i as usize] as usize] = b;
+            }
             self.boxes.push(BoxMeasurement {
                 ground_truth_id: gt,
                 ..fit
@@ -485,11 +533,13 @@ impl LidarRecognition {
             }));
         self.tracker
             .associate(&self.measurements, |_, _| true, &mut self.assignment);
+        self.box_track.clear();
         for (j, b) in self.boxes.iter().enumerate() {
             match self.assignment[j] {
                 Some(i) => {
                     self.tracker.update(i, &self.measurements[j]);
                     let tr = &mut self.tracker.tracks_mut()[i];
+                    self.box_track.push(Some(tr.id));
                     let a = &mut tr.attr;
                     // Yaw modulo π: move towards the measurement along the shorter way.
                     let d = wrap_half_pi(b.yaw_rad - a.yaw_rad);
@@ -506,7 +556,7 @@ impl LidarRecognition {
                 }
                 None => {
                     let vcov = self.tracker.velocity_cov_unknown();
-                    self.tracker.spawn(
+                    let i = self.tracker.spawn(
                         &self.measurements[j],
                         [0.0, 0.0],
                         vcov,
@@ -520,14 +570,17 @@ impl LidarRecognition {
                             has_moved: false,
                         },
                     );
+                    self.box_track.push(Some(self.tracker.tracks()[i].id));
                 }
             }
         }
         self.tracker.finish_cycle();
+        self.reported.clear();
         for tr in self.tracker.tracks_mut() {
             if !tr.is_reported() {
                 continue;
             }
+            self.reported.push((tr.id, tr.attr.ground_truth_id));
             let speed = tr.speed_m_s();
             let (vx, vy) = (tr.x[2], tr.x[3]);
             let a = &mut tr.attr;
@@ -557,6 +610,16 @@ impl LidarRecognition {
                 },
             ));
         }
+        // A box's points belong to its track's object only when that track is reported and was
+        // updated by the box this cycle.
+        let reported = &self.reported;
+        let tracks = self.tracker.tracks();
+        for t in &mut self.box_track {
+            *t = t.filter(|id| {
+                reported.iter().any(|r| r.0 == *id)
+                    && tracks.iter().any(|tr| tr.id == *id && tr.updated)
+            });
+        }
     }
 
     /// Forget all tracks.
@@ -565,6 +628,10 @@ impl LidarRecognition {
         self.frame_jump.reset();
         self.ground = None;
         self.boxes.clear();
+        self.point_box.clear();
+        self.box_track.clear();
+        self.detection_objects.clear();
+        self.reported.clear();
     }
 }
 

@@ -38,7 +38,9 @@
 //!    from the velocity, the class's typical size, existence probability, age, mean RCS, and class
 //!    candidates from a rule-based RCS classifier: Gaussian likelihoods (σ = 5 dB, guessed) around
 //!    the ideal model's typical 77 GHz RCS (car 10, truck 20, bicycle 0, pedestrian −5 dBsm, see
-//!    [`crate::ideal::default_rcs_moving_dbsm`]), `Unknown` at a 2σ constant.
+//!    [`crate::ideal::default_rcs_moving_dbsm`]), `Unknown` at a 2σ constant. Each input detection
+//!    of a cluster that updated (or started) a track reported this cycle belongs to that track
+//!    ([`RadarRecognition::detection_objects`]: the OSI `object_id` of its `RadarDetection`).
 
 use glam::{DVec2, DVec3};
 use osiris_proto::osi3;
@@ -314,6 +316,15 @@ pub struct RadarRecognition {
     measurements: Vec<Measurement>,
     meas_cluster: Vec<usize>,
     assignment: Vec<Option<usize>>,
+    /// Per input detection: the index of its cluster in `clusters` (`u32::MAX`: none).
+    det_cluster: Vec<u32>,
+    /// Per cluster: the id of the track it updated or started this cycle, kept only when that
+    /// track is reported.
+    cluster_track: Vec<Option<u64>>,
+    /// Per input detection: the tracking id of the reported object it belongs to.
+    detection_objects: Vec<Option<u64>>,
+    /// (tracking id, ground truth of its last update) of the objects reported by the last step.
+    reported: Vec<(u64, Option<u64>)>,
 }
 
 impl RadarRecognition {
@@ -335,6 +346,10 @@ impl RadarRecognition {
             measurements: Vec::new(),
             meas_cluster: Vec::new(),
             assignment: Vec::new(),
+            det_cluster: Vec::new(),
+            cluster_track: Vec::new(),
+            detection_objects: Vec::new(),
+            reported: Vec::new(),
         })
     }
 
@@ -361,6 +376,26 @@ impl RadarRecognition {
     ) {
         self.detect(ego, detections);
         self.track(ego, out);
+        self.detection_objects.clear();
+        self.detection_objects.extend(
+            self.det_cluster
+                .iter()
+                .map(|&c| self.cluster_track.get(c as usize).copied().flatten()),
+        );
+    }
+
+    /// Per input detection of the last [`RadarRecognition::step`] (same order): the
+    /// `tracking_id` of the reported object whose cluster the detection was part of, `None` when it
+    /// belongs to no reported object (below-ground or guardrail ghosts, DBSCAN noise, stationary
+    /// clusters no track claimed, tentative tracks).
+    pub fn detection_objects(&self) -> &[Option<u64>] {
+        &self.detection_objects
+    }
+
+    /// `(tracking id, ground-truth id of its last update)` of every object the last step reported
+    /// (a coasting track keeps the ground truth of its last update here, while its header has none).
+    pub fn reported_ground_truth(&self) -> &[(u64, Option<u64>)] {
+        &self.reported
     }
 
     /// Steps 1–4: compensated detections, clusters, guardrails and ghost flags.
@@ -410,6 +445,8 @@ impl RadarRecognition {
             &mut self.queue,
         );
         let n_labels = self.labels.iter().copied().max().map_or(0, |m| m + 1);
+        self.det_cluster.clear();
+        self.det_cluster.resize(detections.len(), u32::MAX);
         self.clusters.clear();
         self.guardrails.clear();
         // Per-cluster statistics (O(n · clusters); small).
@@ -441,6 +478,9 @@ impl RadarRecognition {
                 self.ids.push(detections[i].object_id);
             }
             let gt = common::most_frequent_id(&mut self.ids);
+            for &i in &self.members {
+                self.det_cluster[i] = self.clusters.len() as u32;
+            }
             let moving = 2 * moving > self.members.len();
             self.clusters.push(RadarCluster {
                 position_m: pos / n,
@@ -522,12 +562,15 @@ impl RadarRecognition {
         }
         self.tracker
             .associate(&self.measurements, |_, _| true, &mut self.assignment);
+        self.cluster_track.clear();
+        self.cluster_track.resize(self.clusters.len(), None);
         for j in 0..self.measurements.len() {
             let cl = self.clusters[self.meas_cluster[j]];
             let probs = rcs_class_probabilities(cl.rcs_dbsm);
             match self.assignment[j] {
                 Some(i) => {
                     self.tracker.update(i, &self.measurements[j]);
+                    self.cluster_track[self.meas_cluster[j]] = Some(self.tracker.tracks()[i].id);
                     let a = &mut self.tracker.tracks_mut()[i].attr;
                     const ALPHA: f64 = 0.3;
                     a.centre_z_m += ALPHA * (cl.position_m.z - a.centre_z_m);
@@ -547,7 +590,7 @@ impl RadarRecognition {
                     let cov = self
                         .tracker
                         .velocity_cov_from_radial(rv.direction, rv.variance_m2_s2);
-                    self.tracker.spawn(
+                    let i = self.tracker.spawn(
                         &m,
                         v,
                         cov,
@@ -560,15 +603,18 @@ impl RadarRecognition {
                             has_moved: false,
                         },
                     );
+                    self.cluster_track[self.meas_cluster[j]] = Some(self.tracker.tracks()[i].id);
                 }
                 None => {}
             }
         }
         self.tracker.finish_cycle();
+        self.reported.clear();
         for tr in self.tracker.tracks_mut() {
             if !tr.is_reported() {
                 continue;
             }
+            self.reported.push((tr.id, tr.attr.ground_truth_id));
             let speed = tr.speed_m_s();
             let a = &mut tr.attr;
             let movement = common::movement_state(speed, &mut a.has_moved);
@@ -598,6 +644,16 @@ impl RadarRecognition {
                 },
             ));
         }
+        // A cluster's detections belong to its track's object only when that track is reported and
+        // was updated by the cluster this cycle.
+        let reported = &self.reported;
+        let tracks = self.tracker.tracks();
+        for t in &mut self.cluster_track {
+            *t = t.filter(|id| {
+                reported.iter().any(|r| r.0 == *id)
+                    && tracks.iter().any(|tr| tr.id == *id && tr.updated)
+            });
+        }
     }
 
     /// The tracks (for inspection), with their existence probabilities.
@@ -615,6 +671,10 @@ impl RadarRecognition {
         self.clusters.clear();
         self.guardrails.clear();
         self.compensated.clear();
+        self.det_cluster.clear();
+        self.cluster_track.clear();
+        self.detection_objects.clear();
+        self.reported.clear();
     }
 }
 
