@@ -216,16 +216,28 @@ def test_scenario_drives_the_radar_fmu(tmp_path):
         for k, data in enumerate(frames):
             assert seconds(data.timestamp) == pytest.approx(k * h, abs=1e-9)
             assert data.sensor_id.value == 20
-        # Radar detections of the scenario's objects from the first cycle: the car ahead.
-        first_ids = {d.object_id.value for r in frames[0].feature_data.radar_sensor for d in r.detection}
-        assert AHEAD_ID in first_ids, first_ids
-        assert EGO_ID not in first_ids and BEHIND_ID not in first_ids
-        # Its tracker reports the car ahead as a moving object once confirmed.
-        tracked = set()
+        # From its first cycle the radar detects something straight ahead (the car ahead).
+        first = [d for r in frames[0].feature_data.radar_sensor for d in r.detection]
+        assert any(abs(d.position.azimuth) < 0.05 for d in first), [d.position for d in first]
+        # Its tracker reports the car ahead as a moving object once confirmed, and (OSI 3.8.0) the
+        # detections name that detected object by its tracking id, whose header names the ground
+        # truth: the car ahead, never the ego or the car behind.
+        tracked, associated = set(), set()
         for data in frames:
-            for o in data.moving_object:
-                tracked.update(i.value for i in o.header.ground_truth_id)
+            tracks = {
+                o.header.tracking_id.value: {i.value for i in o.header.ground_truth_id}
+                for o in list(data.moving_object) + list(data.stationary_object)
+            }
+            for gt in tracks.values():
+                tracked.update(gt)
+            for r in data.feature_data.radar_sensor:
+                for d in r.detection:
+                    if d.HasField("object_id"):
+                        assert d.object_id.value in tracks, d.object_id.value
+                        associated.update(tracks[d.object_id.value])
         assert AHEAD_ID in tracked, tracked
+        assert AHEAD_ID in associated, associated
+        assert EGO_ID not in associated and BEHIND_ID not in associated, associated
     finally:
         radar.free()
         source.free()
