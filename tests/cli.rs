@@ -995,3 +995,47 @@ fn a_foreign_osmp_source_fmu_feeds_the_sensors() {
         "{err}"
     );
 }
+
+/// CI's chain in the master: our scenario.fmu as the `--source` of our radar.fmu. The SensorViews the
+/// radar got are the built-in scenario's (its first mount's view at each step the radar fired), and
+/// the radar tracks the car ahead.
+#[test]
+fn scenario_fmu_is_a_source_for_the_radar_in_the_master() {
+    let scenario_fmu = fmu_dir().join("scenario.fmu");
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    run_cli(&[
+        "run",
+        "--source",
+        scenario_fmu.to_str().unwrap(),
+        "--sensors",
+        "radar",
+        "--duration",
+        "0.5",
+        "--fmu-dir",
+        fmu_dir().to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ])
+    .unwrap();
+    let scenario = ScenarioConfig::default();
+    let mount = &scenario.sensors[0];
+    let sv: Vec<osi3::SensorView> = read_messages(typed_trace(&out, "sv", "radar")).unwrap();
+    // The radar's 0.05 s cycle over 0.5 s of 0.01 s frames.
+    assert_eq!(sv.len(), 10);
+    for v in &sv {
+        let t = osiris_proto::timestamp_to_seconds(v.timestamp.as_ref().unwrap());
+        let step = (t / scenario.step_s).round() as usize;
+        assert!((t - step as f64 * scenario.step_s).abs() < 1e-9, "{t}");
+        assert_eq!(v, &scenario.sensor_view(step, mount), "step {step}");
+    }
+    let sd: Vec<osi3::SensorData> = read_messages(sd_trace(&out, "radar")).unwrap();
+    let tracked: Vec<u64> = sd
+        .iter()
+        .flat_map(|m| &m.moving_object)
+        .filter_map(|o| o.header.as_ref())
+        .flat_map(|h| h.ground_truth_id.iter().filter_map(|i| i.value))
+        .collect();
+    assert!(tracked.contains(&100), "{tracked:?}");
+}
