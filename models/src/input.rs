@@ -318,20 +318,31 @@ fn norm(v: &osi3::Vector3d) -> f64 {
     (c(v.x).powi(2) + c(v.y).powi(2) + c(v.z).powi(2)).sqrt()
 }
 
+/// Each named component finite and within ±`bound` (the one check behind vectors, angles and
+/// rates).
+fn axes_problem(
+    field: &str,
+    axes: [(&str, Option<f64>); 3],
+    unit: &str,
+    bound: f64,
+) -> Option<String> {
+    axes.into_iter().find_map(|(axis, c)| {
+        let c = c?;
+        if !c.is_finite() {
+            Some(format!("{field}.{axis} = {c} (must be finite)"))
+        } else if c.abs() > bound {
+            Some(format!(
+                "{field}.{axis} = {c:e} {unit} (plausible: within ±{bound:e} {unit})"
+            ))
+        } else {
+            None
+        }
+    })
+}
+
 /// Each component finite and within ±`bound`.
 fn vector_problem(field: &str, v: &osi3::Vector3d, unit: &str, bound: f64) -> Option<String> {
-    for (axis, c) in [("x", v.x), ("y", v.y), ("z", v.z)] {
-        let Some(c) = c else { continue };
-        if !c.is_finite() {
-            return Some(format!("{field}.{axis} = {c} (must be finite)"));
-        }
-        if c.abs() > bound {
-            return Some(format!(
-                "{field}.{axis} = {c:e} {unit} (plausible: within ±{bound:e} {unit})"
-            ));
-        }
-    }
-    None
+    axes_problem(field, [("x", v.x), ("y", v.y), ("z", v.z)], unit, bound)
 }
 
 /// Each component finite, magnitude ≤ `bound`.
@@ -350,18 +361,12 @@ fn orientation_problem(
     bound: f64,
     unit: &str,
 ) -> Option<String> {
-    for (axis, a) in [("roll", o.roll), ("pitch", o.pitch), ("yaw", o.yaw)] {
-        let Some(a) = a else { continue };
-        if !a.is_finite() {
-            return Some(format!("{field}.{axis} = {a} (must be finite)"));
-        }
-        if a.abs() > bound {
-            return Some(format!(
-                "{field}.{axis} = {a:e} {unit} (plausible: within ±{bound} {unit})"
-            ));
-        }
-    }
-    None
+    axes_problem(
+        field,
+        [("roll", o.roll), ("pitch", o.pitch), ("yaw", o.yaw)],
+        unit,
+        bound,
+    )
 }
 
 fn dimension_problem(field: &str, d: &osi3::Dimension3d) -> Option<String> {
