@@ -554,8 +554,7 @@ fn gating_association_without_object_ids() {
     );
 }
 
-/// End-to-end re-simulation through `osiris_models::build_sensor` (the FMU's code path). Skipped
-/// while the physical radar model reports `NotAvailable`.
+/// End-to-end re-simulation through `osiris_models::build_sensor` (the FMU's code path).
 #[test]
 fn resimulation_with_the_physical_radar_model() {
     let dir = tempfile::tempdir().unwrap();
@@ -572,14 +571,8 @@ fn resimulation_with_the_physical_radar_model() {
     let files = write_radar(&dir.path().join("campaign"), &spec).unwrap();
     let mut off = args(&files, &dir.path().join("off"), false);
     off.disable = vec!["radar.rain_attenuation".into()];
-    let before = match cli::run_with(&off, None) {
-        Ok(s) => s,
-        Err(e) if format!("{e:#}").contains("not available") => {
-            eprintln!("skipped: the physical radar model is not available yet ({e:#})");
-            return;
-        }
-        Err(e) => panic!("re-simulation failed: {e:#}"),
-    };
+    let before =
+        cli::run_with(&off, None).unwrap_or_else(|e| panic!("re-simulation failed: {e:#}"));
     let mut on = args(&files, &dir.path().join("on"), false);
     on.enable = vec!["radar.rain_attenuation".into()];
     let after = cli::run_with(&on, None).unwrap();
@@ -686,8 +679,7 @@ fn hidden_effect_protocol_names_every_case() {
     assert!(failures.is_empty(), "{failures:#?}");
 }
 
-/// End-to-end LiDAR re-simulation through `osiris_models::build_sensor`; skipped while the physical
-/// LiDAR model reports `NotAvailable`.
+/// End-to-end LiDAR re-simulation through `osiris_models::build_sensor`.
 #[test]
 fn resimulation_with_the_physical_lidar_model() {
     let dir = tempfile::tempdir().unwrap();
@@ -699,14 +691,8 @@ fn resimulation_with_the_physical_lidar_model() {
         ..LidarTruth::default()
     };
     let files = write_lidar(&dir.path().join("campaign"), &spec).unwrap();
-    let s = match cli::run_with(&args(&files, &dir.path().join("out"), false), None) {
-        Ok(s) => s,
-        Err(e) if format!("{e:#}").contains("not available") => {
-            eprintln!("skipped: the physical LiDAR model is not available yet ({e:#})");
-            return;
-        }
-        Err(e) => panic!("re-simulation failed: {e:#}"),
-    };
+    let s = cli::run_with(&args(&files, &dir.path().join("out"), false), None)
+        .unwrap_or_else(|e| panic!("re-simulation failed: {e:#}"));
     eprintln!("{}", describe(&s));
     assert_eq!(s.pairing.paired_frames, 2);
     assert!(s.pairing.counts.sim_detected > 0, "{:?}", s.pairing.counts);

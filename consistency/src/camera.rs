@@ -1117,15 +1117,14 @@ pub fn raw_of_step(out: &StepOutput) -> Option<RawFrame> {
 /// so the same fixed pattern; repeats are successive steps, so fresh temporal noise), the frame's
 /// SensorView by timestamp (±0.5 ms; else the view of the same index).
 ///
-/// `NotAvailable` when the model cannot be built, or when every simulated RAW is zero (the camera
-/// stages are still stubs).
+/// An error when the model cannot be built or stepped, or when every simulated RAW is zero (no
+/// light reached the model: nothing to compare).
 pub fn simulate_frames(
     base: &SensorConfig,
     cc: &CameraCampaign,
     views: &[osi3::SensorView],
     warnings: &mut Vec<String>,
 ) -> Result<FrameSet, SimulateError> {
-    use osiris_models::sensor::ModelError;
     type Setting = (u64, u64, u64, bool);
     let mut models: Vec<(Setting, Box<dyn SensorModel>)> = Vec::new();
     let mut out = Vec::with_capacity(cc.frames.len());
@@ -1166,9 +1165,6 @@ pub fn simulate_frames(
                 let cfg = frame_config(base, cc, fm, warnings);
                 let mut m = match build_sensor(cfg) {
                     Ok(m) => m,
-                    Err(ModelError::NotAvailable(why)) => {
-                        return Err(SimulateError::NotAvailable(why));
-                    }
                     Err(e) => return Err(SimulateError::Other(anyhow!("{e}"))),
                 };
                 let req = m.view_configuration_request();
@@ -1212,9 +1208,9 @@ pub fn simulate_frames(
         out.push(Some(raw));
     }
     if out.iter().flatten().all(|f| f.data.iter().all(|&v| v == 0)) {
-        return Err(SimulateError::NotAvailable(
-            "every simulated camera RAW is all zero (the camera stages are still stubs)".into(),
-        ));
+        return Err(SimulateError::Other(anyhow!(
+            "every simulated camera RAW is all zero (not even a black level): nothing to compare"
+        )));
     }
     Ok(out)
 }
@@ -1270,12 +1266,11 @@ pub fn run_with(
             );
             let sim = match simulate_frames(&cfg, &cc, &views, &mut warnings) {
                 Ok(s) => s,
-                Err(SimulateError::NotAvailable(why)) => {
-                    return Err(anyhow!(SimulateError::NotAvailable(why))).context(
-                        "re-simulation impossible; pass --simulated <folder of RAW PNGs>",
-                    );
+                Err(SimulateError::Other(e)) => {
+                    return Err(e.context(
+                        "re-simulation failed (to attribute frames made elsewhere, pass --simulated <folder of RAW PNGs>)",
+                    ));
                 }
-                Err(SimulateError::Other(e)) => return Err(e.context("re-simulation failed")),
             };
             let dir = args.out.join("simulated");
             for (f, s) in cc.frames.iter().zip(&sim) {

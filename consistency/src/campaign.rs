@@ -274,9 +274,10 @@ impl SensorMeta {
     /// The sensor's wavelength, m: c / `frequency_hz` for a radar (77 GHz when absent),
     /// `wavelength_nm` for a LiDAR (905 nm when absent), 550 nm for a camera.
     pub fn wavelength_m(&self) -> f64 {
-        const C_M_S: f64 = 299_792_458.0;
         match self.kind {
-            CampaignSensor::Radar => C_M_S / self.frequency_hz.unwrap_or(77e9),
+            CampaignSensor::Radar => {
+                osiris_models::constants::SPEED_OF_LIGHT_M_S / self.frequency_hz.unwrap_or(77e9)
+            }
             CampaignSensor::Lidar => self.wavelength_nm.unwrap_or(905.0) * 1e-9,
             CampaignSensor::Camera => 550e-9,
         }

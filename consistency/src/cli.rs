@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-use anyhow::{Context, Result, anyhow, bail};
+use anyhow::{Context, Result, bail};
 use osiris_models::sensor::SensorConfig;
 use osiris_proto::osi3;
 
@@ -183,11 +183,11 @@ pub fn run_with_catalogue(
             };
             let simulate::Simulation { frames: sim, truth } = match sim {
                 Ok(s) => s,
-                Err(SimulateError::NotAvailable(why)) => {
-                    return Err(anyhow!(SimulateError::NotAvailable(why)))
-                        .context("re-simulation impossible; pass --simulated <sd.osi> to attribute a trace made elsewhere");
+                Err(SimulateError::Other(e)) => {
+                    return Err(e.context(
+                        "re-simulation failed (to attribute a trace made elsewhere, pass --simulated <sd.osi>)",
+                    ));
                 }
-                Err(SimulateError::Other(e)) => return Err(e.context("re-simulation failed")),
             };
             let path = args.out.join("simulated_sensor_data.osi");
             let mut w = osiris_proto::trace::OsiTraceWriter::create(&path)?;

@@ -8,7 +8,7 @@ use anyhow::{Context, Result, anyhow};
 use osiris_models::effects::EffectSwitches;
 use osiris_models::environment::weather::Weather;
 use osiris_models::sensor::{
-    ModelError, ModelMode, Mounting, SensorConfig, SensorKind, StepInput, StepOutput, build_sensor,
+    ModelMode, Mounting, SensorConfig, SensorKind, StepInput, StepOutput, build_sensor,
 };
 use osiris_proto::osi3;
 
@@ -18,9 +18,6 @@ use super::pairing::ts_ns;
 /// Why a re-simulation could not run.
 #[derive(Debug, thiserror::Error)]
 pub enum SimulateError {
-    /// The model for this sensor is not built yet (`ModelError::NotAvailable`).
-    #[error("the physical model is not available: {0}")]
-    NotAvailable(String),
     #[error(transparent)]
     Other(#[from] anyhow::Error),
 }
@@ -123,7 +120,6 @@ pub fn simulate(
 ) -> Result<Simulation, SimulateError> {
     let mut model = match build_sensor(config.clone()) {
         Ok(m) => m,
-        Err(ModelError::NotAvailable(why)) => return Err(SimulateError::NotAvailable(why)),
         Err(e) => return Err(SimulateError::Other(anyhow!("{e}"))),
     };
     let request = model.view_configuration_request();

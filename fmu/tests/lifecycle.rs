@@ -990,7 +990,7 @@ enum Behaviour {
     PanicInStep,
     PanicInBuild,
     InputError,
-    NotAvailableInStep,
+    ConfigErrorInStep,
     Notes,
     Fill,
 }
@@ -1029,8 +1029,8 @@ impl SensorModel for TestModel {
         match self.behaviour {
             Behaviour::PanicInStep => panic!("test model panics at t = {}", input.time_s),
             Behaviour::InputError => return Err(ModelError::Input("no host vehicle".into())),
-            Behaviour::NotAvailableInStep => {
-                return Err(ModelError::NotAvailable("nothing".into()));
+            Behaviour::ConfigErrorInStep => {
+                return Err(ModelError::Config("nothing".into()));
             }
             _ => {}
         }
@@ -1082,9 +1082,9 @@ test_descriptor!(PANIC_STEP, build_panic_step, Behaviour::PanicInStep);
 test_descriptor!(PANIC_BUILD, build_panic_build, Behaviour::PanicInBuild);
 test_descriptor!(INPUT_ERROR, build_input_error, Behaviour::InputError);
 test_descriptor!(
-    NOT_AVAILABLE,
-    build_not_available,
-    Behaviour::NotAvailableInStep
+    CONFIG_ERROR,
+    build_config_error,
+    Behaviour::ConfigErrorInStep
 );
 test_descriptor!(NOTES, build_notes, Behaviour::Notes);
 test_descriptor!(FILL, build_fill, Behaviour::Fill);
@@ -1137,7 +1137,7 @@ fn model_input_errors_skip_the_frame_other_errors_fail() {
     }
     assert!(i.log.contains("no host vehicle"));
 
-    let i = Inst::new(&NOT_AVAILABLE);
+    let i = Inst::new(&CONFIG_ERROR);
     i.init();
     i.set_input(&bytes);
     assert_eq!(i.step(0.0, 0.05), ERROR);

@@ -68,6 +68,7 @@
 //! All detections use the same sensor frame as the detected objects (physical = virtual sensor:
 //! `SensorDetectionHeader.mounting_position = SensorData.mounting_position`).
 
+use crate::constants::SPEED_OF_LIGHT_M_S;
 use std::collections::HashMap;
 
 use glam::{DMat3, DVec3};
@@ -102,8 +103,6 @@ pub const IDEAL_RADAR_ANTENNA_GAIN_DBI: f64 = 20.0;
 pub const IDEAL_RADAR_SNR_CONSTANT_DB: f64 = 90.0;
 /// Wavelength the ideal LiDAR reports, nm.
 pub const IDEAL_LIDAR_WAVELENGTH_NM: f64 = 905.0;
-
-const SPEED_OF_LIGHT_M_S: f64 = 299_792_458.0;
 
 /// SNR of the ideal radar, dB: `snr = rcs − 40·log10(r / 1 m) + 90 dB`.
 ///

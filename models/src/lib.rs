@@ -13,25 +13,29 @@
 //! * [`recognition`]: detected objects from raw perception output, with tracking.
 //! * [`semantics`]: the OSI 3.8.0 detection semantics every model's output follows (detections →
 //!   detected objects, moving vs stationary, pedestrian poses, camera boxes).
+//! * [`error`], [`constants`], [`rng`]: leaves (the error type, physical constants, seed hashes).
 //! * [`cpu`]: run-time choice of the SIMD kernels (`OSIRIS_SIMD=portable` forces the portable ones).
 
 pub mod camera;
+pub mod constants;
 pub mod cpu;
 pub mod effects;
 pub mod environment;
+pub mod error;
 pub mod frames;
 pub mod ideal;
 pub mod input;
 pub mod lidar;
 pub mod radar;
 pub mod recognition;
+pub mod rng;
 pub mod semantics;
 pub mod sensor;
 pub mod space;
 pub mod special;
 pub mod world;
 
+pub use error::ModelError;
 pub use sensor::{
-    ModelError, ModelMode, SensorConfig, SensorKind, SensorModel, StepInput, StepOutput,
-    build_sensor,
+    ModelMode, SensorConfig, SensorKind, SensorModel, StepInput, StepOutput, build_sensor,
 };

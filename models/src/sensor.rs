@@ -3,6 +3,8 @@
 use osiris_proto::{osi3, perception};
 use serde::{Deserialize, Serialize};
 
+pub use crate::error::ModelError;
+
 use crate::camera::CameraConfig;
 use crate::effects::EffectSwitches;
 use crate::environment::weather::Weather;
@@ -77,20 +79,6 @@ impl std::str::FromStr for ModelMode {
             ))),
         }
     }
-}
-
-/// Errors a model reports to its host (the FMU shell turns them into fmi2Error / fmi2Warning).
-#[derive(Debug, thiserror::Error)]
-pub enum ModelError {
-    /// The configuration is invalid; the message names the key and what was expected.
-    #[error("invalid sensor configuration: {0}")]
-    Config(String),
-    /// The input of one step is unusable (the frame is skipped, the model stays usable).
-    #[error("invalid input: {0}")]
-    Input(String),
-    /// The requested capability is not built yet.
-    #[error("not available: {0}")]
-    NotAvailable(String),
 }
 
 /// A mounting pose: the sensor frame relative to the host vehicle frame (rear-axle centre, ISO 8855),

@@ -387,7 +387,7 @@ fn checkerboard_corners_land_where_the_distortion_model_says() {
 fn backlit_sunset_saturates_where_the_sun_is_and_flare_adds_light() {
     // Sun 3° above the horizon straight ahead (east = +x: azimuth 3π/2).
     let (az, el) = (1.5 * PI, 3f64.to_radians());
-    let dir = osiris_models::lidar::sun_direction(Some(&sun(az, el)));
+    let dir = osiris_models::environment::sun::sun_direction(Some(&sun(az, el)));
     assert!((dir - DVec3::new(el.cos(), 0.0, el.sin())).length() < 1e-12);
     let cam = serde_json::json!({
         "exposure_s": 0.002,

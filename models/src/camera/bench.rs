@@ -218,7 +218,7 @@ pub fn street_view(scene: &CameraBenchScene, t_s: f64) -> osi3::SensorView {
             stationary_object: stationary_objects,
             environmental_conditions: Some(osi3::EnvironmentalConditions {
                 sun: Some(osi3::environmental_conditions::Sun {
-                    // Azimuth counter-clockwise from north (+y) (`crate::lidar::sun_direction`):
+                    // Azimuth counter-clockwise from north (+y) (`crate::environment::sun::sun_direction`):
                     // −50° puts the sun 40° left of the view direction (+x).
                     azimuth: Some(-50f64.to_radians()),
                     elevation: Some(35f64.to_radians()),

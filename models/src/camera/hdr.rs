@@ -23,7 +23,7 @@ use serde::{Deserialize, Serialize};
 use super::RawImage;
 use super::pixel::{ExposureSpec, PixelModel};
 use crate::effects::{EffectInfo, Effects};
-use crate::sensor::ModelError;
+use crate::error::ModelError;
 
 /// PWL companding of the merged linear RAW.
 pub const HDR_COMPANDING: EffectInfo = EffectInfo {

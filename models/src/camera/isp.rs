@@ -44,7 +44,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{BLUE, CHANNELS, Cfa, ChannelImage, GREEN, RED, RawImage, RgbImage, SpectralResponse};
 use crate::effects::EffectInfo;
-use crate::sensor::ModelError;
+use crate::error::ModelError;
 
 /// ISP stages are processing, not physics: none is an effect, but the list exists for symmetry.
 pub const EFFECTS: &[EffectInfo] = &[];

@@ -66,7 +66,7 @@ use serde::{Deserialize, Serialize};
 use super::render::SunInView;
 use super::{CHANNELS, ChannelImage, Flicker};
 use crate::effects::{EffectInfo, Effects};
-use crate::sensor::ModelError;
+use crate::error::ModelError;
 
 /// Relative illumination (natural vignetting × measured lens table).
 pub const VIGNETTING: EffectInfo = EffectInfo {

@@ -23,8 +23,8 @@ use serde::{Deserialize, Serialize};
 use crate::environment::lamps::{LightDistribution, Spectrum};
 use crate::environment::mesh::Mesh;
 use crate::environment::scene::Scene;
+use crate::error::ModelError;
 use crate::frames::Pose;
-use crate::sensor::ModelError;
 
 use super::PwmSource;
 

@@ -29,6 +29,7 @@
 //! and the photodiode's integration window, so two reads of the same charge (IMX490 large PD at
 //! high and low conversion gain) share their shot noise, as in the real pixel.
 
+use crate::rng::splitmix64;
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 use rand_distr::StandardNormal;
@@ -37,7 +38,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{Cfa, ChannelImage, Flicker, GREEN, RawImage, ShutterTiming};
 use crate::effects::{EffectInfo, Effects};
-use crate::sensor::ModelError;
+use crate::error::ModelError;
 
 /// Photon shot noise.
 pub const SHOT_NOISE: EffectInfo = EffectInfo {
@@ -396,14 +397,6 @@ pub struct ExposureSpec {
     /// noise. Otherwise, above 20 e⁻ (the normal approximation) and away from the full well, the two
     /// independent normals are drawn as one (`μ + √(μ + σ_r²)·z`, the same distribution).
     pub shared_charge: bool,
-}
-
-/// SplitMix64 finaliser (Steele, Lea, Flood, OOPSLA 2014): decorrelates per-row seeds.
-fn splitmix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
 }
 
 /// Row generator for stream `stream` of seed `seed`.

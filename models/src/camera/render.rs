@@ -71,6 +71,7 @@
 // Per-band / per-item index loops over several parallel tables read best with indices.
 #![allow(clippy::needless_range_loop)]
 
+use crate::rng::fmix64;
 use std::collections::HashMap;
 use std::f64::consts::PI;
 use std::sync::Mutex;
@@ -91,8 +92,8 @@ use crate::environment::scene::StaticElement;
 use crate::environment::sky::{ClearSkyInput, spectrl2};
 use crate::environment::sun::SUN_RADIUS_DEG;
 use crate::environment::weather;
+use crate::error::ModelError;
 use crate::frames::Pose;
-use crate::sensor::ModelError;
 use crate::space::{Hit, Ray, Sweep, Swept, TransmissionModel, surface_epsilon};
 use crate::world::WorldFrame;
 
@@ -518,14 +519,6 @@ struct Scratch {
     rays_n: u64,
 }
 
-fn hash64(mut x: u64) -> u64 {
-    x ^= x >> 33;
-    x = x.wrapping_mul(0xff51_afd7_ed55_8ccd);
-    x ^= x >> 33;
-    x = x.wrapping_mul(0xc4ce_b9fe_1a85_ec53);
-    x ^ (x >> 33)
-}
-
 fn unit_f64(h: u64) -> f64 {
     (h >> 11) as f64 / (1u64 << 53) as f64
 }
@@ -584,9 +577,10 @@ impl Renderer {
         let frame = input.frame;
         let mats = &frame.scene.materials;
         // Sun and sky (SPCTRAL2).
-        let sun_dir =
-            crate::lidar::sun_direction(input.ground_truth.environmental_conditions.as_ref())
-                .normalize();
+        let sun_dir = crate::environment::sun::sun_direction(
+            input.ground_truth.environmental_conditions.as_ref(),
+        )
+        .normalize();
         let el_deg = sun_dir.z.clamp(-1.0, 1.0).asin().to_degrees();
         let sky = spectrl2(&ClearSkyInput {
             zenith_deg: 90.0 - el_deg,
@@ -776,7 +770,7 @@ impl Renderer {
             bounces,
             max_crossings: self.config.max_glass_crossings,
             max_distance_m: self.config.max_distance_m,
-            seed: hash64(input.seed ^ input.cycle.wrapping_mul(0x9E37_79B9_7F4A_7C15)),
+            seed: fmix64(input.seed ^ input.cycle.wrapping_mul(0x9E37_79B9_7F4A_7C15)),
             flicker: self.flicker,
         };
 
@@ -881,7 +875,7 @@ impl Renderer {
                             let j = if reuse.is_some() {
                                 0.5
                             } else {
-                                unit_f64(hash64(
+                                unit_f64(fmix64(
                                     ctx.seed ^ (row as u64).wrapping_mul(0x2545_F491_4F6C_DD1D),
                                 ))
                             };
@@ -1486,14 +1480,14 @@ impl Ctx<'_> {
             for i in 0..n {
                 let Some(v) = s.vert[i] else { continue };
                 let nrm = v.facing_normal();
-                let h = hash64(
+                let h = fmix64(
                     self.seed
                         ^ (u64::from(items[i].pixel) << 8)
                         ^ u64::from(b)
                         ^ items[i].dt.to_bits(),
                 );
                 let u1 = unit_f64(h);
-                let u2 = unit_f64(hash64(h));
+                let u2 = unit_f64(fmix64(h));
                 // Malley's method: uniform disk sample lifted to the hemisphere.
                 let r = u1.sqrt();
                 let phi = 2.0 * PI * u2;

@@ -12,10 +12,11 @@
 use serde::{Deserialize, Serialize};
 
 use super::CHANNELS;
-use crate::sensor::ModelError;
+use crate::constants::{PLANCK_J_S, SPEED_OF_LIGHT_M_S};
+use crate::error::ModelError;
 
 /// Planck constant × speed of light, J·m (CODATA 2018, exact).
-pub const HC_J_M: f64 = 6.626_070_15e-34 * 299_792_458.0;
+pub const HC_J_M: f64 = PLANCK_J_S * SPEED_OF_LIGHT_M_S;
 
 /// Sub-intervals per band for the band integral of the response (3-point Gauss–Legendre each).
 const SUBINTERVALS: usize = 16;

@@ -26,6 +26,7 @@
 //! and are **UNVERIFIED** against the Regulations' current texts. The spectral shapes
 //! ([`SpectrumShape::white_led`], [`SpectrumShape::red_led`]) are likewise representative.
 
+use crate::constants::{BOLTZMANN_J_PER_K, PLANCK_J_S, SPEED_OF_LIGHT_M_S};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
@@ -371,13 +372,6 @@ impl LightDistribution {
 // Spectra
 // ---------------------------------------------------------------------------------------------
 
-/// Planck constant, J s (SI 2019, exact).
-const H_PLANCK: f64 = 6.626_070_15e-34;
-/// Speed of light, m/s (exact).
-const C_LIGHT: f64 = 299_792_458.0;
-/// Boltzmann constant, J/K (SI 2019, exact).
-const K_BOLTZMANN: f64 = 1.380_649e-23;
-
 /// Planck spectral radiance of a black body, W m⁻² sr⁻¹ nm⁻¹:
 /// `B(λ, T) = 2hc²/λ⁵ / (exp(hc/(λ k_B T)) − 1)` (λ in m inside, result per nm).
 pub fn planck_radiance_w_m2_sr_nm(lambda_nm: f64, temperature_k: f64) -> f64 {
@@ -385,8 +379,8 @@ pub fn planck_radiance_w_m2_sr_nm(lambda_nm: f64, temperature_k: f64) -> f64 {
         return 0.0;
     }
     let l = lambda_nm * 1e-9;
-    let x = H_PLANCK * C_LIGHT / (l * K_BOLTZMANN * temperature_k);
-    2.0 * H_PLANCK * C_LIGHT * C_LIGHT / l.powi(5) / x.exp_m1() * 1e-9
+    let x = PLANCK_J_S * SPEED_OF_LIGHT_M_S / (l * BOLTZMANN_J_PER_K * temperature_k);
+    2.0 * PLANCK_J_S * SPEED_OF_LIGHT_M_S * SPEED_OF_LIGHT_M_S / l.powi(5) / x.exp_m1() * 1e-9
 }
 
 fn gaussian(lambda_nm: f64, peak_nm: f64, fwhm_nm: f64) -> f64 {

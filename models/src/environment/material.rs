@@ -118,6 +118,7 @@
 //!
 //! The BRDF is reciprocal (`f(wi, wo) = f(wo, wi)`).
 
+use crate::constants::SPEED_OF_LIGHT_M_S;
 use std::collections::HashMap;
 use std::f64::consts::{FRAC_1_PI, PI};
 use std::path::Path;
@@ -223,8 +224,6 @@ pub const VISIBLE_STEP_NM: f64 = 10.0;
 /// Number of visible samples (380..=780 nm).
 pub const VISIBLE_SAMPLES: usize = 41;
 
-/// Speed of light, m/s.
-const C0: f64 = 299_792_458.0;
 /// Vacuum permittivity, F/m (CODATA 2018).
 const EPS0: f64 = 8.854_187_812_8e-12;
 /// Schema tag of the JSON files.
@@ -769,7 +768,7 @@ fn stack_response(
     incidence_rad: f64,
     pol: Polarisation,
 ) -> StackResponse {
-    let k0 = 2.0 * PI * freq_hz / C0;
+    let k0 = 2.0 * PI * freq_hz / SPEED_OF_LIGHT_M_S;
     let (sin_t, cos_t) = incidence_rad.sin_cos();
     let cos_t = cos_t.max(0.0);
     let sin2 = sin_t * sin_t;
@@ -866,7 +865,7 @@ pub fn fresnel_unpolarised(n: f64, k: f64, cos_theta: f64) -> f64 {
 /// Ament roughness factor `exp(−2 (k σ_h cos θ)²)` on the coherent reflection coefficient
 /// (Ament 1953; Beckmann & Spizzichino 1963).
 pub fn ament_factor(freq_hz: f64, roughness_m: f64, incidence_rad: f64) -> f64 {
-    let k = 2.0 * PI * freq_hz / C0;
+    let k = 2.0 * PI * freq_hz / SPEED_OF_LIGHT_M_S;
     let x = k * roughness_m * incidence_rad.cos();
     (-2.0 * x * x).exp()
 }
@@ -2741,7 +2740,7 @@ mod tests {
     #[test]
     fn material_half_and_quarter_wave_slabs() {
         let eps: f64 = 4.0;
-        let lambda = C0 / F77;
+        let lambda = SPEED_OF_LIGHT_M_S / F77;
         for (d, expect) in [
             (lambda / (2.0 * eps.sqrt()), 0.0),
             (lambda / (4.0 * eps.sqrt()), {
@@ -2797,7 +2796,7 @@ mod tests {
         let sigma = asphalt.mmwave.roughness_m;
         assert!(sigma > 0.0);
         for theta in [0.0, 30.0, 60.0, 85.0] {
-            let k = 2.0 * PI * F77 / C0;
+            let k = 2.0 * PI * F77 / SPEED_OF_LIGHT_M_S;
             let x = k * sigma * deg(theta).cos();
             let expected = (-2.0 * x * x).exp();
             assert!((asphalt.ament_factor(F77, deg(theta)) - expected).abs() < 1e-15);

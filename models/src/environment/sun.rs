@@ -604,6 +604,20 @@ pub fn direction_enu(azimuth_deg: f64, elevation_deg: f64) -> DVec3 {
     DVec3::new(e.cos() * a.sin(), e.cos() * a.cos(), e.sin())
 }
 
+/// The sun direction in the scene frame from the ground truth's `environmental_conditions.sun`
+/// (OSI: azimuth counter-clockwise from north, 0 = north, π/2 = west; elevation above the horizon;
+/// the scene frame's +x is east and +y north, [`enu_to_scene`] identity), else the default sun at
+/// 45° elevation due south (a documented assumption).
+pub fn sun_direction(env: Option<&osiris_proto::osi3::EnvironmentalConditions>) -> DVec3 {
+    let (az, el) = env
+        .and_then(|e| e.sun.as_ref())
+        .and_then(|s| Some((s.azimuth?, s.elevation?)))
+        .filter(|(a, e)| a.is_finite() && e.is_finite())
+        .unwrap_or((std::f64::consts::PI, std::f64::consts::FRAC_PI_4));
+    // ENU: north = +y, west = −x; counter-clockwise from north.
+    DVec3::new(-el.cos() * az.sin(), el.cos() * az.cos(), el.sin())
+}
+
 /// Sun direction (unit vector towards the apparent sun) in local east-north-up coordinates
 /// (x = east, y = north, z = up) for a UTC instant given as a [`CivilTime`].
 pub fn sun_direction_enu(time: &CivilTime, delta_t_s: f64, observer: &Observer) -> DVec3 {

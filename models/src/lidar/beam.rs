@@ -14,7 +14,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::effects::EffectInfo;
-use crate::sensor::ModelError;
+use crate::error::ModelError;
 
 /// `lidar.vertical_divergence`: the beam also diverges vertically.
 pub const VERTICAL_DIVERGENCE: EffectInfo = EffectInfo {

@@ -12,9 +12,10 @@ use std::time::Instant;
 use glam::{DMat3, DVec3};
 use serde_json::{Value, json};
 
-use super::{FrameInput, LidarConfig, LidarEngine, SolarPlan, sun_direction};
+use super::{FrameInput, LidarConfig, LidarEngine, SolarPlan};
 use crate::effects::{Effects, catalogue};
 use crate::environment::material::MaterialDb;
+use crate::environment::sun::sun_direction;
 use crate::environment::weather::Weather;
 use crate::frames::Pose;
 use crate::space::BvhKind;

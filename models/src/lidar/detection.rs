@@ -40,16 +40,15 @@
 //!   "calibrated reflectivity"): 0–100 diffuse reflectivity in %, 101–255 retro-reflectors, 255 = ideal
 //!   retro-reflector / saturated.
 
+use crate::constants::SPEED_OF_LIGHT_M_S;
 use rand::Rng;
 use rand::rngs::SmallRng;
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
 use crate::effects::{EffectInfo, Effects};
-use crate::sensor::ModelError;
+use crate::error::ModelError;
 
-/// Speed of light in vacuum, m/s (SI definition).
-const C_M_S: f64 = 299_792_458.0;
 /// Elementary charge, C (SI definition).
 const Q_E_C: f64 = 1.602_176_634e-19;
 /// 10–90 % rise time of a Gaussian pulse in units of its σ: √(2 ln 10) − √(2 ln(10/9)).
@@ -510,7 +509,7 @@ impl Detector {
             + c.tia_noise_a_per_sqrt_hz.powi(2) * b)
             / (r0 * m).powi(2);
         let threshold_sigmas = gaussian_q_inv(c.false_alarm_probability);
-        let sigma_r_m = 0.5 * C_M_S * c.pulse_fwhm_s / GAUSS_FWHM_PER_SIGMA;
+        let sigma_r_m = 0.5 * SPEED_OF_LIGHT_M_S * c.pulse_fwhm_s / GAUSS_FWHM_PER_SIGMA;
         let quant_var = c.range_resolution_m.powi(2) / 12.0;
         let range_floor_m = (c.range_accuracy_m.powi(2) - quant_var).max(0.0).sqrt();
         let threshold0 = threshold_sigmas * var_dark_w2.sqrt();
@@ -529,7 +528,7 @@ impl Detector {
             range_floor_m,
             pulse_pair_m: c
                 .pulse_pair_resolution_m
-                .unwrap_or(0.5 * C_M_S * c.pulse_fwhm_s),
+                .unwrap_or(0.5 * SPEED_OF_LIGHT_M_S * c.pulse_fwhm_s),
             power_full_scale_w: c.power_full_scale_w.unwrap_or(c.saturation_power_w),
             walk_constant_m,
             cal_range_m: calibration.range_m,
@@ -996,7 +995,7 @@ impl Detector {
             intensity,
             snr: snr as f32,
             saturated,
-            pulse_width_s: (2.0 * cand.width_m / C_M_S) as f32,
+            pulse_width_s: (2.0 * cand.width_m / SPEED_OF_LIGHT_M_S) as f32,
             object_id: cand.object_id,
         })
     }

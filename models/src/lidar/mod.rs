@@ -50,6 +50,7 @@ pub mod export;
 pub mod scan;
 pub mod signal;
 
+use crate::rng::splitmix64;
 use std::sync::Mutex;
 
 use glam::{DMat3, DVec3};
@@ -63,6 +64,7 @@ use serde::{Deserialize, Serialize};
 use crate::effects::{EffectInfo, Effects};
 use crate::environment::material::{self, MaterialDb, MaterialEffects};
 use crate::environment::scene::{Scene, StaticElement};
+use crate::environment::sun;
 use crate::frames::{Pose, Spherical};
 use crate::recognition::lidar::LidarRecognition;
 use crate::recognition::{EgoState, LidarPoint};
@@ -269,14 +271,6 @@ pub struct LidarEngine {
     seed: u64,
     scratch: Mutex<Vec<Scratch>>,
     chunks: Vec<Vec<PointRecord>>,
-}
-
-/// SplitMix64 finaliser (Steele et al., OOPSLA 2014).
-pub fn splitmix64(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
 }
 
 /// Pose after `dt_s` for constant linear and angular velocity (as `WorldFrame::sensor_pose_at`).
@@ -631,20 +625,6 @@ fn surface_key(hit: &Hit, scene: Option<&Scene>) -> (u64, u64) {
     }
 }
 
-/// The sun direction in the scene frame from the ground truth's `environmental_conditions.sun`
-/// (OSI: azimuth counter-clockwise from north, 0 = north, π/2 = west; elevation above the horizon;
-/// the scene frame's +x is east and +y north, `sun::enu_to_scene` identity), else the default sun at
-/// 45° elevation due south (a documented assumption).
-pub fn sun_direction(env: Option<&osi3::EnvironmentalConditions>) -> DVec3 {
-    let (az, el) = env
-        .and_then(|e| e.sun.as_ref())
-        .and_then(|s| Some((s.azimuth?, s.elevation?)))
-        .filter(|(a, e)| a.is_finite() && e.is_finite())
-        .unwrap_or((std::f64::consts::PI, std::f64::consts::FRAC_PI_4));
-    // ENU: north = +y, west = −x; counter-clockwise from north.
-    DVec3::new(-el.cos() * az.sin(), el.cos() * az.cos(), el.sin())
-}
-
 /// The physical LiDAR sensor model.
 pub struct LidarSensor {
     lidar: LidarConfig,
@@ -803,7 +783,7 @@ impl SensorModel for LidarSensor {
         let solar = if self.effects.is_on(&signal::SOLAR_BACKGROUND) {
             SolarPlan::new(
                 &self.lidar.signal,
-                sun_direction(gt_env.as_ref()),
+                sun::sun_direction(gt_env.as_ref()),
                 self.resolved.wavelength_nm,
             )
         } else {

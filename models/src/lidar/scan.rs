@@ -14,7 +14,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::effects::EffectInfo;
-use crate::sensor::ModelError;
+use crate::error::ModelError;
 
 /// `lidar.scan_motion`: every firing is traced at its own time within the cycle.
 pub const SCAN_MOTION: EffectInfo = EffectInfo {

@@ -24,7 +24,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::effects::{EffectInfo, Effects};
 use crate::environment::weather::{self, Weather};
-use crate::sensor::ModelError;
+use crate::error::ModelError;
 
 /// `lidar.overlap_function`: biaxial transmitter/receiver overlap at near range.
 pub const OVERLAP_FUNCTION: EffectInfo = EffectInfo {

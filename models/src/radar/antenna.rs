@@ -6,9 +6,10 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::constants::BOLTZMANN_J_PER_K;
 use crate::effects::{EffectInfo, Effects};
 use crate::environment::material::Polarisation as PlanePolarisation;
-use crate::sensor::ModelError;
+use crate::error::ModelError;
 
 /// `radar.antenna_pattern`: direction-dependent Tx and Rx gains.
 pub const ANTENNA_PATTERN: EffectInfo = EffectInfo {
@@ -397,7 +398,7 @@ impl FrontEndConfig {
 
     /// Noise power spectral density at the receiver input `k T₀ F_n`, W/Hz.
     pub fn noise_psd_w_per_hz(&self) -> f64 {
-        1.380649e-23 * self.noise_temperature_k * 10f64.powf(self.noise_figure_db / 10.0)
+        BOLTZMANN_J_PER_K * self.noise_temperature_k * 10f64.powf(self.noise_figure_db / 10.0)
     }
 }
 

@@ -53,6 +53,8 @@
 //! AVX2 + FMA build with run-time dispatch (portable fallback); cells are distributed with rayon,
 //! noise seeded per cell.
 
+use crate::constants::SPEED_OF_LIGHT_M_S;
+use crate::rng::splitmix64;
 use std::sync::Arc;
 
 use num_complex::{Complex, Complex64};
@@ -63,12 +65,12 @@ use rayon::prelude::*;
 use rustfft::{Fft, FftPlanner};
 
 use crate::effects::{EffectInfo, Effects};
-use crate::sensor::ModelError;
+use crate::error::ModelError;
 
 use super::PathReturn;
 use super::antenna::{Antennas, FrontEndConfig};
 use super::processing::{self, CfarKind, MAX_ANGLE_PEAKS, ProcessingConfig};
-use super::waveform::{ArrayConfig, C_M_S, InterfererConfig, PhaseNoiseConfig, WaveformConfig};
+use super::waveform::{ArrayConfig, InterfererConfig, PhaseNoiseConfig, WaveformConfig};
 
 type C32 = Complex<f32>;
 
@@ -316,14 +318,6 @@ fn principal(s: f64, period: Option<f64>) -> f64 {
         Some(p) => s - p * (s / p + 0.5).floor(),
         None => s,
     }
-}
-
-/// SplitMix64 finaliser: decorrelated per-item seeds.
-fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
 }
 
 /// e^{jε} for a small phase (polynomial), exact sincos beyond 0.3 rad.
@@ -730,7 +724,7 @@ impl RadarChain {
         RangeDopplerMap {
             range_bins: ns,
             doppler_bins: nc,
-            range_bin_m: C_M_S * self.fs_hz / (2.0 * self.slope * ns as f64),
+            range_bin_m: SPEED_OF_LIGHT_M_S * self.fs_hz / (2.0 * self.slope * ns as f64),
             doppler_bin_m_s: self.lambda_m / (2.0 * nc as f64 * self.t_rep_s),
             power_dbm,
         }
@@ -751,7 +745,8 @@ impl RadarChain {
         self.paths.clear();
         let mut dirs: Vec<([f64; 2], [f64; 2], f64)> = Vec::with_capacity(paths.len());
         for p in paths {
-            let fb = 2.0 * self.slope * p.range_m / C_M_S + 2.0 * p.range_rate_m_s / lam;
+            let fb =
+                2.0 * self.slope * p.range_m / SPEED_OF_LIGHT_M_S + 2.0 * p.range_rate_m_s / lam;
             let a2 = p.amplitude.norm_sqr();
             let finite = [
                 p.range_m,
@@ -898,7 +893,7 @@ impl RadarChain {
                 let q1 = ((w1 - ic.delay_s) / ic.chirp_interval_s).floor() as i64;
                 for q in q0.max(0)..=q1 {
                     let tq = ic.delay_s + q as f64 * ic.chirp_interval_s;
-                    let phi0 = (mix(seed ^ mix(q as u64 ^ 0x1F7E_0000)) >> 11) as f64
+                    let phi0 = (splitmix64(seed ^ splitmix64(q as u64 ^ 0x1F7E_0000)) >> 11) as f64
                         * (two_pi / (1u64 << 53) as f64);
                     for (n, v) in row.iter_mut().enumerate() {
                         let t = w0 + n as f64 / fs;
@@ -971,7 +966,7 @@ impl RadarChain {
     fn synthesize_inner(&mut self, paths: &[PathReturn], seed: u64) {
         self.prepare_paths(paths);
         if self.phase_noise.is_some() {
-            let mut rng = SmallRng::seed_from_u64(mix(seed ^ 0x50A5_E000));
+            let mut rng = SmallRng::seed_from_u64(splitmix64(seed ^ 0x50A5_E000));
             for z in self.pn_z.iter_mut() {
                 *z = rng.sample(StandardNormal);
             }
@@ -1067,7 +1062,8 @@ impl RadarChain {
                         }
                         let re = &mut cre[c * ns..(c + 1) * ns];
                         let im = &mut cim[c * ns..(c + 1) * ns];
-                        let mut rng = SmallRng::seed_from_u64(mix(seed ^ mix(cell as u64)));
+                        let mut rng =
+                            SmallRng::seed_from_u64(splitmix64(seed ^ splitmix64(cell as u64)));
                         for (r, i) in re.iter_mut().zip(im.iter_mut()) {
                             let nr: f32 = rng.sample(StandardNormal);
                             let ni: f32 = rng.sample(StandardNormal);
@@ -1420,7 +1416,7 @@ impl RadarChain {
             v
         };
         let fb = (n as f64 + dn) * self.fs_hz / ns as f64;
-        let range = C_M_S * (fb - 2.0 * v / self.lambda_m) / (2.0 * self.slope);
+        let range = SPEED_OF_LIGHT_M_S * (fb - 2.0 * v / self.lambda_m) / (2.0 * self.slope);
         let noise_beam = self.noise_cell * self.angle_win_sq;
         let snr_db_of = |beam: f64| 10.0 * ((beam - noise_beam) / noise_beam).max(1e-12).log10();
         let maxp = self.proc.max_angle_peaks_per_cell.clamp(1, MAX_ANGLE_PEAKS);

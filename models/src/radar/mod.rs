@@ -17,6 +17,7 @@ pub mod processing;
 pub mod propagation;
 pub mod waveform;
 
+use crate::constants::SPEED_OF_LIGHT_M_S;
 use num_complex::Complex64;
 use osiris_proto::{id, interface_version, osi3, perception};
 use prost::Message as _;
@@ -98,9 +99,6 @@ pub fn build(
 ) -> Result<Box<dyn crate::sensor::SensorModel>, crate::sensor::ModelError> {
     Ok(Box::new(RadarSensor::new(config)?))
 }
-
-/// Speed of light, m/s.
-const C0: f64 = 299_792_458.0;
 
 /// The physical radar sensor model: world → propagation paths → baseband chain → detections →
 /// recognition.
@@ -227,7 +225,7 @@ impl RadarSensor {
 /// See [`RadarSensor::rcs_estimate_dbsm`].
 fn rcs_estimate_dbsm(radar: &RadarConfig, antennas: &Antennas, d: &ChainDetection) -> f64 {
     let fe = &radar.front_end;
-    let lambda = C0 / radar.waveform.carrier_frequency_hz;
+    let lambda = SPEED_OF_LIGHT_M_S / radar.waveform.carrier_frequency_hz;
     let g = antennas.tx_gain_dbi(d.azimuth_rad, d.elevation_rad)
         + antennas.rx_gain_dbi(d.azimuth_rad, d.elevation_rad);
     d.power_dbm - fe.tx_power_dbm - g - 20.0 * lambda.log10()
@@ -306,7 +304,7 @@ impl SensorModel for RadarSensor {
             &mut self.paths,
         );
         self.chain_out.clear();
-        let seed = crate::lidar::splitmix64(self.seed ^ crate::lidar::splitmix64(cycle));
+        let seed = crate::rng::splitmix64(self.seed ^ crate::rng::splitmix64(cycle));
         let cfg = self.handshake.config();
         self.chain
             .set_field_of_view(cfg.fov_horizontal_rad, cfg.fov_vertical_rad);

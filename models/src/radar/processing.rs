@@ -17,7 +17,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::sensor::ModelError;
+use crate::error::ModelError;
 
 /// Upper bound of `ProcessingConfig::max_angle_peaks_per_cell`.
 pub const MAX_ANGLE_PEAKS: usize = 8;

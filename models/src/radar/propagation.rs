@@ -48,6 +48,7 @@
 //! parallel (rayon, fixed output slots per tube, so the sums are deterministic), contributions
 //! sorted by (key, tube) and reduced; all buffers are reused between frames.
 
+use crate::constants::SPEED_OF_LIGHT_M_S;
 use std::f64::consts::PI;
 
 use glam::{DMat3, DVec3};
@@ -61,12 +62,9 @@ use crate::effects::{EffectInfo, Effects};
 use crate::environment::material::{MaterialEffects, Polarisation as PlanePol};
 use crate::environment::scene::{Scene, StaticElement};
 use crate::environment::weather::{self, FOG_EXTINCTION as ENV_FOG, Weather};
-use crate::sensor::ModelError;
+use crate::error::ModelError;
 use crate::space::{Hit, Ray, Space};
 use crate::world::WorldFrame;
-
-/// Speed of light, m/s.
-const C0: f64 = 299_792_458.0;
 
 /// `radar.two_way_spreading`: the 1/(R_out² R_back²) spreading of the radar equation.
 pub const TWO_WAY_SPREADING: EffectInfo = EffectInfo {
@@ -526,7 +524,7 @@ impl Propagator {
                 "`radar.waveform.carrier_frequency_hz` must be > 1 GHz, got {carrier_frequency_hz}"
             )));
         }
-        let lambda = C0 / carrier_frequency_hz;
+        let lambda = SPEED_OF_LIGHT_M_S / carrier_frequency_hz;
         let l_sys = 10f64.powf(front_end.system_losses_db / 10.0);
         let amp_const =
             (front_end.tx_power_w() * lambda * lambda / ((4.0 * PI).powi(3) * l_sys)).sqrt();

@@ -12,12 +12,10 @@
 //! at 10 Msps, 128 chirps per Tx, chirps inside 76–77 GHz). The numbers are a plausible AWR1843
 //! profile chosen by us (guessed, not a TI reference configuration).
 
+use crate::constants::SPEED_OF_LIGHT_M_S;
 use serde::{Deserialize, Serialize};
 
-use crate::sensor::ModelError;
-
-/// Speed of light, m/s.
-pub const C_M_S: f64 = 299_792_458.0;
+use crate::error::ModelError;
 
 /// Oscillator phase noise (the `radar.phase_noise` effect), a single-pole (Lorentzian) PSD
 /// `L(f) = L₀ / (1 + (f/f_c)²)` with `L₀` the plateau in dBc/Hz.
@@ -167,7 +165,7 @@ impl Default for WaveformConfig {
 impl WaveformConfig {
     /// Wavelength at the reference frequency, m.
     pub fn wavelength_m(&self) -> f64 {
-        C_M_S / self.carrier_frequency_hz
+        SPEED_OF_LIGHT_M_S / self.carrier_frequency_hz
     }
 
     /// Chirp interval T_c (ramp + idle), s.
@@ -196,12 +194,12 @@ impl WaveformConfig {
 
     /// Range resolution `c / (2B)`, m (also the range-FFT bin width).
     pub fn range_resolution_m(&self) -> f64 {
-        C_M_S / (2.0 * self.sampled_bandwidth_hz())
+        SPEED_OF_LIGHT_M_S / (2.0 * self.sampled_bandwidth_hz())
     }
 
     /// Maximum range with complex sampling, `f_s c / (2S)`, m.
     pub fn max_range_m(&self) -> f64 {
-        self.sample_rate_hz * C_M_S / (2.0 * self.slope_hz_per_s)
+        self.sample_rate_hz * SPEED_OF_LIGHT_M_S / (2.0 * self.slope_hz_per_s)
     }
 
     /// Maximum unambiguous radial velocity `λ / (4 T_c')`, m/s.
@@ -222,7 +220,8 @@ impl WaveformConfig {
 
     /// Beat frequency of a path, `f_b = 2 S R / c + 2 v / λ`, Hz.
     pub fn beat_frequency_hz(&self, range_m: f64, range_rate_m_s: f64) -> f64 {
-        2.0 * self.slope_hz_per_s * range_m / C_M_S + 2.0 * range_rate_m_s / self.wavelength_m()
+        2.0 * self.slope_hz_per_s * range_m / SPEED_OF_LIGHT_M_S
+            + 2.0 * range_rate_m_s / self.wavelength_m()
     }
 
     /// Check the values; errors name the key (`radar.waveform.<key>`).
@@ -396,7 +395,7 @@ mod tests {
         assert!(a.has_elevation());
         // B = 15 MHz/µs × 25.6 µs = 384 MHz → ΔR = c / 2B = 0.390 m; R_max = 10 MHz·c / 30 MHz/µs.
         assert!((w.sampled_bandwidth_hz() - 384e6).abs() < 1.0);
-        assert!((w.range_resolution_m() - C_M_S / 768e6).abs() < 1e-9);
+        assert!((w.range_resolution_m() - SPEED_OF_LIGHT_M_S / 768e6).abs() < 1e-9);
         assert!((w.max_range_m() - 99.93).abs() < 0.01);
         // T_c' = 3 × 32 µs: v_max = λ/(4 T_c') = 10.2 m/s, Δv = λ/(2·128·96 µs) = 0.159 m/s.
         assert!((w.max_velocity_m_s(3) - w.wavelength_m() / 384e-6).abs() < 1e-9);

@@ -54,6 +54,7 @@
 //! Per-object buffers are kept across frames; the only per-pixel work is the mask pass, the
 //! ring sums and the ray-box tests inside each object's projected box.
 
+use crate::rng::splitmix64;
 use glam::{DMat3, DVec2, DVec3};
 use osiris_proto::{id, osi3, perception};
 use rand::{Rng as _, SeedableRng as _, rngs::SmallRng};
@@ -62,10 +63,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::camera::lens::Lens;
 use crate::camera::{NO_OBJECT, RenderAux};
+use crate::error::ModelError;
 use crate::frames::{
     SensorFrame, moving_object_pose, rotation_from_rpy, rpy_from_rotation, rpy_to_osi, vec3_to_osi,
 };
-use crate::sensor::ModelError;
 
 /// Camera recognition parameters (`"recognition"` key of the camera config). Every default is a
 /// guessed value (see the module doc for the model).
@@ -344,14 +345,6 @@ pub struct CameraRecognition {
     measurements: Vec<Measurement>,
 }
 
-/// splitmix64 finaliser (Steele, Lea, Flood, OOPSLA 2014) for per-object seeds.
-fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
 /// Ray (from the origin) – oriented box slab test in box coordinates: does the ray hit the box?
 fn ray_hits_box(origin_b: DVec3, dir_b: DVec3, half: DVec3) -> bool {
     let mut t0 = 0.0f64;
@@ -578,7 +571,9 @@ impl CameraRecognition {
                 .detection_probability(visible_fraction, box_h, contrast);
             let detected = if self.config.random_draw {
                 let mut rng = SmallRng::seed_from_u64(
-                    input.seed ^ mix(input.cycle) ^ mix(gt_id.rotate_left(32) ^ 0x5EED),
+                    input.seed
+                        ^ splitmix64(input.cycle)
+                        ^ splitmix64(gt_id.rotate_left(32) ^ 0x5EED),
                 );
                 rng.random::<f64>() < p
             } else {

@@ -62,7 +62,7 @@ use serde::{Deserialize, Serialize};
 use super::common::{self, ObjectClass, Report};
 use super::tracking::{Measurement, Tracker, TrackerConfig};
 use super::{EgoState, LidarPoint};
-use crate::sensor::ModelError;
+use crate::error::ModelError;
 
 /// At most this many points score a RANSAC hypothesis (a strided subset).
 pub const RANSAC_SCORE_POINTS: usize = 4000;

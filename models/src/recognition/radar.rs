@@ -49,7 +49,7 @@ use serde::{Deserialize, Serialize};
 use super::common::{self, ObjectClass, Report};
 use super::tracking::{Measurement, RadialVelocity, Tracker, TrackerConfig};
 use super::{EgoState, RadarDetection};
-use crate::sensor::ModelError;
+use crate::error::ModelError;
 
 /// Radar recognition parameters (`radar.recognition` in the sensor configuration).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -45,7 +45,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::sensor::ModelError;
+use crate::error::ModelError;
 
 /// χ² 99 % quantile with 2 degrees of freedom.
 pub const CHI2_99_2DOF: f64 = 9.210;
