@@ -282,7 +282,7 @@ fn generator_physics_reference_values() {
         overlap(4.0)
     );
     assert!((overlap(6.0) - 1.0).abs() < 1e-9);
-    // Fog: V = 50 m → 340 dB/km one-way (validation.md §9(b)); V = 200 m → 85 dB/km.
+    // Fog: V = 50 m → 340 dB/km one-way (validation.md §9b); V = 200 m → 85 dB/km.
     let db_km = |v: f64| 10.0 * std::f64::consts::E.log10() * fog_extinction_per_m(v) * 1000.0;
     assert!((db_km(50.0) - 340.0).abs() < 1.0);
     assert!((db_km(200.0) - 85.0).abs() < 0.5);

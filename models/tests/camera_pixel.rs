@@ -2,7 +2,7 @@
 //! (`osiris_models::camera::{spectral, pixel, hdr}`) against independent expectations:
 //! numeric integrals of the spectral response, the EMVA 1288 photon-transfer method (physics.md
 //! §3.1), dark-signal and non-uniformity measurements as EMVA 1288 prescribes them, the PWM
-//! on-fraction of an LED over a row's window, and the linearity of the HDR merge (§3.3).
+//! on-fraction of an LED over a row's window, and the linearity of the HDR merge (physics.md §3.3).
 
 use osiris_models::camera::hdr::{HdrConfig, HdrMode, HdrPipeline};
 use osiris_models::camera::pixel::{ExposureSpec, PixelConfig, PixelModel};

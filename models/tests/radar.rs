@@ -1,6 +1,6 @@
 //! Closed-form tests of the physical radar's propagation (`osiris_models::radar`): radar equation
-//! laws, canonical RCS (physics.md §1.2), P.838 rain, two-ray ground lobing (§1.3), Doppler, and the
-//! end-to-end detections of a corner reflector.
+//! laws, canonical RCS (physics.md §1.2), P.838 rain, two-ray ground lobing (physics.md §1.3),
+//! Doppler, and the end-to-end detections of a corner reflector.
 
 mod common;
 use common::{coherent_power_w, db};

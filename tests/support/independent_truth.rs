@@ -1,7 +1,7 @@
 //! A second, independent truth generator for the consistency workflow (GitHub issue 15).
 //!
-//! Written from the closed forms of `shared/reference/physics.md` (radar §1, LiDAR §2) and the
-//! hidden-effect protocol of `shared/reference/validation.md` §8, without looking at the workflow's
+//! Written from the closed forms of `docs/physics.md` (radar §1, LiDAR §2) and the
+//! hidden-effect protocol of `docs/validation.md` §8, without looking at the workflow's
 //! own generator (`consistency/src/truth*.rs`) or at the effect catalogue's signatures: it shares
 //! no physics code with the model or the catalogue, only the OSI messages and the trace writer.
 //!
@@ -374,7 +374,8 @@ pub fn radar_lambda() -> f64 {
 /// SNR of σ = 10 m² at 100 m after range/Doppler FFT and 12-channel beamforming, dB (physics.md
 /// §1.1 worked example: 15.0 + 10.8).
 pub const SNR_REF_DB: f64 = 25.8;
-/// CFAR-like detection threshold on the SNR, dB (CA-CFAR N = 24 at P_FA 1e-6 needs 12.7 dB: §1.7).
+/// CFAR-like detection threshold on the SNR, dB (CA-CFAR N = 24 at P_FA 1e-6 needs 12.7 dB:
+/// physics.md §1.7).
 pub const DET_THRESHOLD_DB: f64 = 13.0;
 /// One-way 3 dB beamwidths, deg (GUESSED: a typical long/mid-range automotive radar).
 pub const AZ_BW_DEG: f64 = 20.0;

@@ -662,7 +662,7 @@ mod tests {
 
     #[test]
     fn validation_md_fog_table() {
-        // validation.md (b): one-way dB/km 849 / 340 / 170 / 85 / 34 at V = 20 / 50 / 100 / 200 /
+        // validation.md §9b: one-way dB/km 849 / 340 / 170 / 85 / 34 at V = 20 / 50 / 100 / 200 /
         // 500 m (λ-independent below 500 m with Kim), two-way at 10 m 17.0 / 6.8 / 3.4 / 1.7 / 0.7 dB.
         for (v, db_km, two_way_10) in [
             (20.0, 849.0, 17.0),

@@ -2,7 +2,7 @@
 //!
 //! # Structure
 //!
-//! A two-level BVH (obvhs, see `shared/reference/physics.md` §5):
+//! A two-level BVH (obvhs, see `docs/physics.md` §5):
 //!
 //! * one bottom-level BVH (BLAS) for the **static world** (road, markings, buildings), built once;
 //! * one BLAS per **unique object mesh** (a car model is built once, however many cars use it);
