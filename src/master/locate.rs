@@ -85,7 +85,7 @@ pub fn locate_fmu_library(kind: &str) -> Result<PathBuf> {
 }
 
 /// Finds `lib osiris_<kind>.so` for the requested profile, running
-/// `cargo build -p osiris-<kind>-fmu --profile <profile>` as `options.build` says, and returns the path of
+/// `cargo build -p osiris -p osiris-<kind>-fmu --lib --profile <profile>` as `options.build` says, and returns the path of
 /// the cdylib cargo reports (or the expected path).
 pub fn locate_fmu_library_with(kind: &str, options: &LocateOptions) -> Result<PathBuf> {
     let fail = |reason: String| MasterError::Locate {
@@ -236,10 +236,18 @@ fn cargo_build(
     let package = format!("osiris-{kind}-fmu");
     let mut cmd = Command::new(cargo_executable(options));
     cmd.current_dir(workspace)
+        // `-p osiris --lib` beside the FMU crate: cargo unifies the features of the packages it
+        // builds together, so the FMU crate's dependencies resolve to the same features as the
+        // `osiris` binary's (a superset of the FMU crates' own) and reuse the artifacts the
+        // README's `cargo run --release` already built, instead of a second build of the models
+        // with other features. `--lib` leaves the running `osiris` binary alone.
         .args([
             "build",
             "-p",
+            "osiris",
+            "-p",
             &package,
+            "--lib",
             "--profile",
             profile,
             "--message-format=json-render-diagnostics",
@@ -266,7 +274,7 @@ fn cargo_build(
             .rev()
             .collect();
         return Err(CargoError::Failed(format!(
-            "`cargo build -p {package} --profile {profile}` in `{}` failed ({}){}",
+            "`cargo build -p osiris -p {package} --lib --profile {profile}` in `{}` failed ({}){}",
             workspace.display(),
             output.status,
             if tail.is_empty() {
