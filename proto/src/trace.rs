@@ -647,20 +647,25 @@ pub fn parse_trace_file_name(path: &Path) -> Option<(String, String, u64)> {
     Some((ty.to_owned(), osi.to_owned(), frames))
 }
 
+/// A small SensorView per index (t = 0.05 s · i, sensor id i): the sample message of the trace
+/// tests of both formats.
+#[cfg(test)]
+pub(crate) fn sample_view(i: u64) -> crate::osi3::SensorView {
+    crate::osi3::SensorView {
+        version: Some(crate::interface_version()),
+        timestamp: Some(crate::timestamp_from_seconds(i as f64 * 0.05)),
+        sensor_id: Some(crate::id(i)),
+        ..Default::default()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::osi3;
     use std::time::Duration;
 
-    fn sv(i: u64) -> osi3::SensorView {
-        osi3::SensorView {
-            version: Some(crate::interface_version()),
-            timestamp: Some(crate::timestamp_from_seconds(i as f64 * 0.05)),
-            sensor_id: Some(crate::id(i)),
-            ..Default::default()
-        }
-    }
+    use super::sample_view as sv;
 
     #[test]
     fn round_trip_through_a_file() {

@@ -904,14 +904,7 @@ mod tests {
     use crate::osi3;
     use std::io::Cursor;
 
-    fn sv(i: u64) -> osi3::SensorView {
-        osi3::SensorView {
-            version: Some(crate::interface_version()),
-            timestamp: Some(crate::timestamp_from_seconds(i as f64 * 0.05)),
-            sensor_id: Some(crate::id(i)),
-            ..Default::default()
-        }
-    }
+    use crate::trace::sample_view as sv;
 
     #[test]
     fn schema_sets_hold_the_type_and_its_imports_only() {
