@@ -4,7 +4,7 @@
 //! Each test names the parts of the chain it depends on.
 
 mod common;
-use common::sun;
+use common::{sun, v3};
 
 use std::f64::consts::PI;
 
@@ -22,14 +22,6 @@ use osiris_proto::{id, osi3, perception, timestamp_from_seconds};
 const MOUNT: [f64; 3] = [1.9, 0.0, 1.3];
 const W: usize = 320;
 const H: usize = 240;
-
-fn v3(a: [f64; 3]) -> osi3::Vector3d {
-    osi3::Vector3d {
-        x: Some(a[0]),
-        y: Some(a[1]),
-        z: Some(a[2]),
-    }
-}
 
 fn car(oid: u64, pos: [f64; 3]) -> osi3::MovingObject {
     let dim = [4.5, 1.8, 1.5];

@@ -3,6 +3,8 @@
 //! ground-truth boxes and a flat road (no renderer), so the expectations are closed-form pinhole /
 //! ground-plane geometry.
 
+mod common;
+use common::v3;
 use glam::DVec3;
 use osiris_models::camera::lens::{Lens, LensConfig};
 use osiris_models::camera::{NO_OBJECT, RenderAux};
@@ -29,14 +31,6 @@ fn lens() -> Lens {
     Lens::new(&LensConfig::default(), W, H, 3e-6, HFOV, &effects).unwrap()
 }
 
-fn v3(x: f64, y: f64, z: f64) -> osi3::Vector3d {
-    osi3::Vector3d {
-        x: Some(x),
-        y: Some(y),
-        z: Some(z),
-    }
-}
-
 fn vehicle(oid: u64, centre: [f64; 3], d: [f64; 3]) -> osi3::MovingObject {
     use osi3::moving_object::vehicle_classification::Type as V;
     osi3::MovingObject {
@@ -47,7 +41,7 @@ fn vehicle(oid: u64, centre: [f64; 3], d: [f64; 3]) -> osi3::MovingObject {
                 width: Some(d[1]),
                 height: Some(d[2]),
             }),
-            position: Some(v3(centre[0], centre[1], centre[2])),
+            position: Some(v3([centre[0], centre[1], centre[2]])),
             orientation: Some(osi3::Orientation3d {
                 roll: Some(0.0),
                 pitch: Some(0.0),

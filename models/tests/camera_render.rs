@@ -9,7 +9,7 @@
 //! Gaussian channels) so that the expectations do not depend on the sensor's response model.
 
 mod common;
-use common::sun;
+use common::{dim, rpy, sun, v3};
 
 use std::f64::consts::PI;
 
@@ -29,30 +29,6 @@ use osiris_models::sensor::{ModelError, ModelMode, Mounting, SensorConfig, Senso
 use osiris_models::world::SensorWorld;
 use osiris_proto::{id, osi3};
 
-fn v3(x: f64, y: f64, z: f64) -> osi3::Vector3d {
-    osi3::Vector3d {
-        x: Some(x),
-        y: Some(y),
-        z: Some(z),
-    }
-}
-
-fn dim(l: f64, w: f64, h: f64) -> osi3::Dimension3d {
-    osi3::Dimension3d {
-        length: Some(l),
-        width: Some(w),
-        height: Some(h),
-    }
-}
-
-fn rpy(r: f64, p: f64, y: f64) -> osi3::Orientation3d {
-    osi3::Orientation3d {
-        roll: Some(r),
-        pitch: Some(p),
-        yaw: Some(y),
-    }
-}
-
 /// A board with its face centre at `pos`, oriented by (pitch, yaw) (yaw = π faces a sensor on −x).
 fn board(
     oid: u64,
@@ -65,8 +41,8 @@ fn board(
     osi3::StationaryObject {
         id: Some(id(oid)),
         base: Some(osi3::BaseStationary {
-            dimension: Some(dim(0.01, size, size)),
-            position: Some(v3(pos[0], pos[1], pos[2])),
+            dimension: Some(dim([0.01, size, size])),
+            position: Some(v3([pos[0], pos[1], pos[2]])),
             orientation: Some(rpy(0.0, pitch, yaw)),
             ..Default::default()
         }),
@@ -88,10 +64,10 @@ fn moving(
     osi3::MovingObject {
         id: Some(id(oid)),
         base: Some(osi3::BaseMoving {
-            dimension: Some(dim(d[0], d[1], d[2])),
-            position: Some(v3(pos[0], pos[1], pos[2])),
+            dimension: Some(dim([d[0], d[1], d[2]])),
+            position: Some(v3([pos[0], pos[1], pos[2]])),
             orientation: Some(rpy(0.0, 0.0, yaw)),
-            velocity: Some(v3(velocity[0], velocity[1], velocity[2])),
+            velocity: Some(v3([velocity[0], velocity[1], velocity[2]])),
             orientation_rate: Some(rpy(0.0, 0.0, 0.0)),
             ..Default::default()
         }),

@@ -1,5 +1,7 @@
 //! Closed-form behaviour tests of the ideal object-level model (`osiris_models::ideal`).
 
+mod common;
+use common::v3;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use glam::DVec3;
@@ -10,14 +12,6 @@ use osiris_models::{SensorConfig, SensorKind, SensorModel, StepInput, StepOutput
 use osiris_proto::{id, osi3, timestamp_from_seconds};
 
 const HOST: u64 = 1;
-
-fn v3(a: [f64; 3]) -> osi3::Vector3d {
-    osi3::Vector3d {
-        x: Some(a[0]),
-        y: Some(a[1]),
-        z: Some(a[2]),
-    }
-}
 
 fn vehicle(oid: u64, pos: [f64; 3], yaw: f64, dim: [f64; 3], vel: [f64; 3]) -> osi3::MovingObject {
     osi3::MovingObject {

@@ -7,6 +7,8 @@
 //! by a sensor on a static bench (no host: the mounting is the global pose) with small custom scan
 //! patterns, so every test is quick in the dev profile.
 
+mod common;
+use common::{dim, rpy, v3};
 use std::f64::consts::PI;
 
 use glam::DVec3;
@@ -22,30 +24,6 @@ use osiris_proto::{id, osi3, perception::LidarPerception};
 
 const SENSOR_Z: f64 = 1.0;
 
-fn v3(x: f64, y: f64, z: f64) -> osi3::Vector3d {
-    osi3::Vector3d {
-        x: Some(x),
-        y: Some(y),
-        z: Some(z),
-    }
-}
-
-fn dim(l: f64, w: f64, h: f64) -> osi3::Dimension3d {
-    osi3::Dimension3d {
-        length: Some(l),
-        width: Some(w),
-        height: Some(h),
-    }
-}
-
-fn rpy(r: f64, p: f64, y: f64) -> osi3::Orientation3d {
-    osi3::Orientation3d {
-        roll: Some(r),
-        pitch: Some(p),
-        yaw: Some(y),
-    }
-}
-
 /// A board facing −x (towards a sensor at the origin) with its face centre at `pos`.
 fn board(
     oid: u64,
@@ -58,8 +36,8 @@ fn board(
     osi3::StationaryObject {
         id: Some(id(oid)),
         base: Some(osi3::BaseStationary {
-            dimension: Some(dim(0.01, w, h)),
-            position: Some(v3(pos[0], pos[1], pos[2])),
+            dimension: Some(dim([0.01, w, h])),
+            position: Some(v3([pos[0], pos[1], pos[2]])),
             orientation: Some(rpy(0.0, 0.0, yaw)),
             ..Default::default()
         }),
@@ -74,10 +52,10 @@ fn car(oid: u64, pos: [f64; 3], yaw: f64, speed: f64) -> osi3::MovingObject {
     osi3::MovingObject {
         id: Some(id(oid)),
         base: Some(osi3::BaseMoving {
-            dimension: Some(dim(4.5, 1.8, 1.5)),
-            position: Some(v3(pos[0], pos[1], pos[2])),
+            dimension: Some(dim([4.5, 1.8, 1.5])),
+            position: Some(v3([pos[0], pos[1], pos[2]])),
             orientation: Some(rpy(0.0, 0.0, yaw)),
-            velocity: Some(v3(speed * yaw.cos(), speed * yaw.sin(), 0.0)),
+            velocity: Some(v3([speed * yaw.cos(), speed * yaw.sin(), 0.0])),
             orientation_rate: Some(rpy(0.0, 0.0, 0.0)),
             ..Default::default()
         }),

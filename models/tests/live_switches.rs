@@ -12,7 +12,7 @@
 //! check only that some emitted image changes.
 
 mod common;
-use common::{db, sun};
+use common::{db, sun, v3};
 
 use std::f64::consts::PI;
 
@@ -133,14 +133,6 @@ fn every_effect_has_a_live_case() {
     );
     for (name, _) in CASES.iter().chain(ALSO) {
         info(name);
-    }
-}
-
-fn v3(a: [f64; 3]) -> osi3::Vector3d {
-    osi3::Vector3d {
-        x: Some(a[0]),
-        y: Some(a[1]),
-        z: Some(a[2]),
     }
 }
 

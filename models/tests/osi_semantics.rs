@@ -4,6 +4,8 @@
 //! the host vehicle, camera boxes have 2 points, and the optional SensorView copy. The expected
 //! poses and box corners are computed here from the scene, not by the library.
 
+mod common;
+use common::{dim, rpy, v3};
 use std::f64::consts::PI;
 
 use glam::{DMat3, DVec3};
@@ -18,30 +20,6 @@ use osiris_proto::{id, osi3, timestamp_from_seconds};
 
 use osi3::moving_object::pedestrian_attributes::bone::Type as Bone;
 use osi3::stationary_object::classification::{Material, Type as SType};
-
-fn v3(a: DVec3) -> osi3::Vector3d {
-    osi3::Vector3d {
-        x: Some(a.x),
-        y: Some(a.y),
-        z: Some(a.z),
-    }
-}
-
-fn rpy(r: f64, p: f64, y: f64) -> osi3::Orientation3d {
-    osi3::Orientation3d {
-        roll: Some(r),
-        pitch: Some(p),
-        yaw: Some(y),
-    }
-}
-
-fn dim(d: [f64; 3]) -> osi3::Dimension3d {
-    osi3::Dimension3d {
-        length: Some(d[0]),
-        width: Some(d[1]),
-        height: Some(d[2]),
-    }
-}
 
 fn moving(
     oid: u64,

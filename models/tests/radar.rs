@@ -3,7 +3,7 @@
 //! Doppler, and the end-to-end detections of a corner reflector.
 
 mod common;
-use common::{coherent_power_w, db};
+use common::{coherent_power_w, db, v3};
 
 use std::f64::consts::PI;
 
@@ -17,14 +17,6 @@ use osiris_proto::{id, osi3, timestamp_from_seconds};
 
 const C0: f64 = 299_792_458.0;
 const TARGET: u64 = 7;
-
-fn v3(a: [f64; 3]) -> osi3::Vector3d {
-    osi3::Vector3d {
-        x: Some(a[0]),
-        y: Some(a[1]),
-        z: Some(a[2]),
-    }
-}
 
 /// A moving object with `reference` at `pos`, yaw, box `dim`, velocity.
 fn target(

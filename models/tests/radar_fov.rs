@@ -6,7 +6,7 @@
 //! `v − 2 v_max round(v / 2 v_max)` with `2 v_max = λ / (2 N_tx T_c)`.
 
 mod common;
-use common::db;
+use common::{db, v3};
 
 use std::f64::consts::PI;
 
@@ -312,14 +312,6 @@ fn grating_lobes_of_a_sparse_array_are_folded_onto_the_target() {
 
 // ---------------------------------------------------------------------------------------------
 // Sensor level: ray-traced scenes through the whole model.
-
-fn v3(a: [f64; 3]) -> osi3::Vector3d {
-    osi3::Vector3d {
-        x: Some(a[0]),
-        y: Some(a[1]),
-        z: Some(a[2]),
-    }
-}
 
 /// A moving object with `reference`, id, at `pos` with yaw, box `dim` and velocity `vel`.
 fn object(

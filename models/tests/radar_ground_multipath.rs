@@ -13,7 +13,7 @@
 //! (time dependence e^{jωt}, ε = ε' − jε''): the DD, DG, GD and GG paths summed coherently.
 
 mod common;
-use common::{coherent_power_w, db};
+use common::{coherent_power_w, db, v3};
 
 use std::f64::consts::PI;
 
@@ -33,14 +33,6 @@ const THICKNESS: f64 = 0.002;
 /// Sensor height and the height of the reflector's OSI box centre, m.
 const SENSOR_Z: f64 = 0.5;
 const BOX_Z: f64 = 0.6;
-
-fn v3(a: [f64; 3]) -> osi3::Vector3d {
-    osi3::Vector3d {
-        x: Some(a[0]),
-        y: Some(a[1]),
-        z: Some(a[2]),
-    }
-}
 
 /// The trihedral's box centred `r` m straight ahead at height `BOX_Z`, facing the sensor (yaw π), as
 /// a moving object or a stationary one. The box (0.09 × 0.15 × 0.15 m) is not taller than the

@@ -3,6 +3,8 @@
 //! outer lines, dashed inner lines with dash flags (6 m / 12 m), a road edge, a guardrail, a trihedral,
 //! a board, a cone and six road users (host id 1).
 
+mod common;
+use common::{dim, rpy, v3};
 use std::collections::BTreeSet;
 
 use glam::{DMat3, DVec3};
@@ -20,38 +22,14 @@ const SHOULDER: f64 = 2.5;
 const LENGTH: f64 = 400.0;
 const MARKING: f64 = 0.15;
 
-fn v3(x: f64, y: f64, z: f64) -> osi3::Vector3d {
-    osi3::Vector3d {
-        x: Some(x),
-        y: Some(y),
-        z: Some(z),
-    }
-}
-
-fn dim(d: [f64; 3]) -> osi3::Dimension3d {
-    osi3::Dimension3d {
-        length: Some(d[0]),
-        width: Some(d[1]),
-        height: Some(d[2]),
-    }
-}
-
-fn rpy(r: f64, p: f64, y: f64) -> osi3::Orientation3d {
-    osi3::Orientation3d {
-        roll: Some(r),
-        pitch: Some(p),
-        yaw: Some(y),
-    }
-}
-
 fn moving(oid: u64, reference: &str, pos: [f64; 3], d: [f64; 3], speed: f64) -> osi3::MovingObject {
     osi3::MovingObject {
         id: Some(id(oid)),
         base: Some(osi3::BaseMoving {
             dimension: Some(dim(d)),
-            position: Some(v3(pos[0], pos[1], pos[2])),
+            position: Some(v3([pos[0], pos[1], pos[2]])),
             orientation: Some(rpy(0.0, 0.0, 0.0)),
-            velocity: Some(v3(speed, 0.0, 0.0)),
+            velocity: Some(v3([speed, 0.0, 0.0])),
             orientation_rate: Some(rpy(0.0, 0.0, 0.0)),
             ..Default::default()
         }),
@@ -66,7 +44,7 @@ fn stationary(oid: u64, reference: &str, pos: [f64; 3], d: [f64; 3]) -> osi3::St
         id: Some(id(oid)),
         base: Some(osi3::BaseStationary {
             dimension: Some(dim(d)),
-            position: Some(v3(pos[0], pos[1], pos[2])),
+            position: Some(v3([pos[0], pos[1], pos[2]])),
             orientation: Some(rpy(0.0, 0.0, 0.0)),
             ..Default::default()
         }),
@@ -87,7 +65,7 @@ fn ground_truth() -> osi3::GroundTruth {
     let solid = |y: f64, w: f64| -> Vec<osi3::lane_boundary::BoundaryPoint> {
         xs.iter()
             .map(|&x| osi3::lane_boundary::BoundaryPoint {
-                position: Some(v3(x, y, 0.0)),
+                position: Some(v3([x, y, 0.0])),
                 width: Some(w),
                 height: Some(0.0),
                 dash: None,
@@ -101,7 +79,7 @@ fn ground_truth() -> osi3::GroundTruth {
             let end = (x + 6.0f64).min(LENGTH);
             for (px, d) in [(x, Dash::Start), (end, Dash::End)] {
                 pts.push(osi3::lane_boundary::BoundaryPoint {
-                    position: Some(v3(px, y, 0.0)),
+                    position: Some(v3([px, y, 0.0])),
                     width: Some(MARKING),
                     height: Some(0.0),
                     dash: Some(d as i32),
@@ -598,7 +576,7 @@ fn fallback_road_plane_rebase_and_wetness() {
     let gt = ground_truth();
     let mut s = scene(&gt);
     let mut far = gt.clone();
-    far.moving_object[0].base.as_mut().unwrap().position = Some(v3(5050.0, 0.0, 0.75));
+    far.moving_object[0].base.as_mut().unwrap().position = Some(v3([5050.0, 0.0, 0.75]));
     let u = s.update(&far).unwrap();
     assert!(u.rebased && u.static_rebuilt);
     assert_eq!(s.origin, DVec3::new(5100.0, 0.0, 0.0));

@@ -35,3 +35,35 @@ pub fn coherent_power_w(paths: &[PathReturn], lambda: f64) -> f64 {
         .sum::<Complex64>()
         .norm_sqr()
 }
+
+// ---------------------------------------------------------------------------------------------
+// OSI builders
+
+/// OSI vector from `[x, y, z]` (or a `DVec3`), m or m/s.
+pub fn v3(a: impl Into<[f64; 3]>) -> osi3::Vector3d {
+    let [x, y, z] = a.into();
+    osi3::Vector3d {
+        x: Some(x),
+        y: Some(y),
+        z: Some(z),
+    }
+}
+
+/// OSI box dimension from `[length, width, height]`, m.
+pub fn dim(d: impl Into<[f64; 3]>) -> osi3::Dimension3d {
+    let [length, width, height] = d.into();
+    osi3::Dimension3d {
+        length: Some(length),
+        width: Some(width),
+        height: Some(height),
+    }
+}
+
+/// OSI orientation from roll, pitch, yaw, rad.
+pub fn rpy(roll: f64, pitch: f64, yaw: f64) -> osi3::Orientation3d {
+    osi3::Orientation3d {
+        roll: Some(roll),
+        pitch: Some(pitch),
+        yaw: Some(yaw),
+    }
+}
