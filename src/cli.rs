@@ -6,13 +6,15 @@
 //!   sensor's SensorView, SensorData and PerceptionData traces (`.osi`, and/or one OSI `.mcap` per run
 //!   with `--format`) and a summary to `out/`.
 //! * `osiris package [--out DIR]`: builds `camera.fmu`, `radar.fmu`, `lidar.fmu` (default `target/fmu/`).
-//! * `osiris bench <what>`: one JSON line of figures per benchmark.
+//! * `osiris bench <what>`: one JSON line of figures per benchmark, with the machine it ran on;
+//!   `osiris bench report <json>...` turns such lines into docs/benchmarks.md.
 //! * `osiris export <trace> --out <file>`: one frame of a PerceptionData trace (`.osi`, or a channel of
 //!   an `.mcap`) as PCD/PLY (LiDAR), PNG/CSV (radar range-Doppler map) or PNG (camera).
 //! * `osiris consistency --meta <campaign>/consistency.toml --out <dir>`: model vs measurement
 //!   campaign, where it fails and which named effect explains it (summary.json, report.html).
 //! * `osiris scenario`: prints the built-in default scenario as JSON (a starting point for your own).
-//! * `osiris effects`: lists every named physical effect (name, default, formula, source).
+//! * `osiris effects`: lists every named physical effect (name, default, formula, source);
+//!   `--markdown` prints docs/effects.md.
 //! * `osiris model-description <sensor>`: prints a sensor FMU's modelDescription.xml.
 
 use std::path::{Path, PathBuf};
