@@ -6,13 +6,15 @@
 //!   sensor's SensorView, SensorData and PerceptionData traces (`.osi`, and/or one OSI `.mcap` per run
 //!   with `--format`) and a summary to `out/`.
 //! * `osiris package [--out DIR]`: builds `camera.fmu`, `radar.fmu`, `lidar.fmu` (default `target/fmu/`).
-//! * `osiris bench <what>`: one JSON line of figures per benchmark.
+//! * `osiris bench <what>`: one JSON line of figures per benchmark, with the machine it ran on;
+//!   `osiris bench report <json>...` turns such lines into docs/benchmarks.md.
 //! * `osiris export <trace> --out <file>`: one frame of a PerceptionData trace (`.osi`, or a channel of
 //!   an `.mcap`) as PCD/PLY (LiDAR), PNG/CSV (radar range-Doppler map) or PNG (camera).
 //! * `osiris consistency --meta <campaign>/consistency.toml --out <dir>`: model vs measurement
 //!   campaign, where it fails and which named effect explains it (summary.json, report.html).
 //! * `osiris scenario`: prints the built-in default scenario as JSON (a starting point for your own).
-//! * `osiris effects`: lists every named physical effect (name, default, formula, source).
+//! * `osiris effects`: lists every named physical effect (name, default, formula, source);
+//!   `--markdown` prints docs/effects.md.
 //! * `osiris model-description <sensor>`: prints a sensor FMU's modelDescription.xml.
 
 use std::path::{Path, PathBuf};
@@ -113,6 +115,9 @@ pub enum BenchWhat {
     /// case (or none, or one outside the catalogue) over 10 seeds; hit rate per case and wrong
     /// acceptances as JSON.
     ConsistencyProtocol,
+    /// Not a benchmark: turn the JSON lines of earlier `osiris bench` runs (the FILE arguments)
+    /// into markdown, one table per line with the machine it ran on (docs/benchmarks.md).
+    Report,
 }
 
 #[derive(Debug, Subcommand)]
@@ -150,6 +155,12 @@ pub enum Command {
         /// Timed frames per measurement; `lidar`, `radar` and `camera` (default 10, 40 and 5).
         #[arg(long)]
         frames: Option<usize>,
+        /// `report`: files of `osiris bench` JSON lines.
+        #[arg(value_name = "FILE")]
+        files: Vec<PathBuf>,
+        /// `report`: a paragraph printed under the title (e.g. the state of the machine).
+        #[arg(long, value_name = "TEXT")]
+        note: Option<String>,
     },
     /// Write one frame of a PerceptionData trace (`out/<sensor>.perception.osi`) as a file:
     /// a LiDAR point cloud as `.pcd` / `.ply`, a radar range-Doppler map as `.png` / `.csv`, a
@@ -183,8 +194,11 @@ pub enum Command {
     /// List every named physical effect: name, default, formula, source.
     Effects {
         /// Print JSON instead of a table.
-        #[arg(long)]
+        #[arg(long, conflicts_with = "markdown")]
         json: bool,
+        /// Print docs/effects.md (a markdown page with the table).
+        #[arg(long)]
+        markdown: bool,
     },
     /// Print the modelDescription.xml of a sensor FMU.
     ModelDescription {
@@ -325,7 +339,16 @@ pub fn main_with(cli: Cli) -> Result<()> {
             fmu_dir,
             threads,
             frames,
+            files,
+            note,
         } => {
+            if what == BenchWhat::Report {
+                outln!("{}", bench_report(&files, note.as_deref())?.trim_end());
+                return Ok(());
+            }
+            if !files.is_empty() {
+                bail!("FILE arguments are for `osiris bench report` only");
+            }
             if threads.is_empty() || threads.contains(&0) {
                 bail!("--threads: give thread counts >= 1, e.g. 1,2");
             }
@@ -350,7 +373,12 @@ pub fn main_with(cli: Cli) -> Result<()> {
                 ),
                 BenchWhat::Consistency => crate::consistency::bench::bench_consistency(max_threads),
                 BenchWhat::ConsistencyProtocol => consistency_protocol()?,
+                BenchWhat::Report => unreachable!("handled above"),
             };
+            let mut figures = figures;
+            if let Some(name) = what.to_possible_value() {
+                crate::bench::stamp(&mut figures, name.get_name());
+            }
             outln!("{}", serde_json::to_string(&figures)?);
             Ok(())
         }
@@ -370,9 +398,11 @@ pub fn main_with(cli: Cli) -> Result<()> {
             outln!("{}", ScenarioConfig::default().to_json_pretty());
             Ok(())
         }
-        Command::Effects { json } => {
+        Command::Effects { json, markdown } => {
             let all = osiris_models::effects::catalogue();
-            if json {
+            if markdown {
+                out!("{}", effects_markdown(&all));
+            } else if json {
                 let rows: Vec<_> = all
                     .iter()
                     .map(|e| {
@@ -411,6 +441,74 @@ pub fn main_with(cli: Cli) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// `osiris bench report FILE...`: the markdown of every JSON line in the files.
+fn bench_report(files: &[PathBuf], note: Option<&str>) -> Result<String> {
+    if files.is_empty() {
+        bail!(
+            "`osiris bench report` needs the JSON files of earlier runs, e.g. \
+             osiris bench report docs/benchmarks/*.json"
+        );
+    }
+    let mut runs = Vec::new();
+    for f in files {
+        let text =
+            std::fs::read_to_string(f).with_context(|| format!("reading {}", f.display()))?;
+        for (i, line) in text.lines().enumerate() {
+            if line.trim().is_empty() {
+                continue;
+            }
+            let v: serde_json::Value = serde_json::from_str(line).with_context(|| {
+                format!(
+                    "{}:{}: not a JSON line of `osiris bench`",
+                    f.display(),
+                    i + 1
+                )
+            })?;
+            runs.push(v);
+        }
+    }
+    let known: Vec<(String, String)> = BenchWhat::value_variants()
+        .iter()
+        .filter(|w| **w != BenchWhat::Report)
+        .filter_map(|w| w.to_possible_value())
+        .map(|p| {
+            let about = p.get_help().map(|h| h.to_string()).unwrap_or_default();
+            let about = about.trim_end_matches('.').to_owned() + ".";
+            (p.get_name().to_owned(), about)
+        })
+        .collect();
+    Ok(crate::bench::markdown_report(&runs, &known, note))
+}
+
+/// `osiris effects --markdown`: the page docs/effects.md, generated from the catalogue.
+pub fn effects_markdown(all: &[osiris_models::effects::EffectInfo]) -> String {
+    let cell = |s: &str| s.replace('|', "\\|");
+    let mut md = String::from(
+        "# Named physical effects\n\n\
+         <!-- Generated by `cargo run -- effects --markdown > docs/effects.md`; do not edit (a test \
+         compares). -->\n\n\
+         Every physical effect of the models is a named switch. Set it per FMU in the configuration \
+         (`\"effects\": {\"lidar.range_walk\": false}`, see [fmu.md](fmu.md#configuration)), or per \
+         re-simulation with `osiris consistency --enable/--disable` ([consistency.md](consistency.md)). \
+         An effect that requires another applies only while that one is on too. `osiris effects` \
+         prints the same list as text, `osiris effects --json` as JSON.\n\n\
+         | effect | default | what it does | source |\n|---|---|---|---|\n",
+    );
+    for e in all {
+        let requires = e
+            .requires
+            .map_or(String::new(), |r| format!(" Requires `{r}`."));
+        md.push_str(&format!(
+            "| `{}` | {} | {}{requires} | {} |\n",
+            e.name,
+            if e.default_on { "on" } else { "off" },
+            cell(e.summary),
+            cell(e.source),
+        ));
+    }
+    md
 }
 
 fn sensor_list(args: &[SensorArg]) -> Vec<SensorKind> {

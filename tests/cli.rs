@@ -503,13 +503,14 @@ fn bad_inputs_give_clear_errors() {
 }
 
 #[test]
-fn readme_lists_every_named_effect() {
-    let readme =
-        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md")).unwrap();
+fn effects_page_lists_every_named_effect() {
+    let page =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/effects.md"))
+            .unwrap();
     for e in osiris_models::effects::catalogue() {
         assert!(
-            readme.contains(&format!("`{}`", e.name)),
-            "README.md does not document `{}`",
+            page.contains(&format!("| `{}` |", e.name)),
+            "docs/effects.md does not document `{}`",
             e.name
         );
     }

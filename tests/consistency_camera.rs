@@ -187,7 +187,7 @@ fn each_hidden_effect_alone_is_found_at_1x_and_3x_tolerance() {
             eprintln!("{}", describe(&s));
             // Shot noise at 1× lives in the brightest temporal pairs only: its χ² gain is real
             // (ΔBIC ≫ 10) but the baseline χ²/dof stays below 1, so gate 3 (share of the excess
-            // χ²) cannot pass; ½× and 1× may legitimately stay CONSISTENT (hit rates: README).
+            // χ²) cannot pass; ½× and 1× may legitimately stay CONSISTENT (hit rates: docs/consistency.md).
             let required = m >= 3.0 || h != CameraHidden::ShotNoise;
             if required && (!ok || s.status == "CONSISTENT") {
                 missed.push(format!("{h:?} at {m}×"));

@@ -6,7 +6,7 @@
 //!
 //! The fuzz test runs `OSIRIS_FUZZ_CASES` cases per mode (default: 1,000 per sensor in the ideal
 //! mode and 40 per sensor in the physical mode; the seed is `OSIRIS_FUZZ_SEED`, default 1). A long
-//! campaign (10⁶ cases, documented in README):
+//! campaign (10⁶ cases, documented in docs/fmu.md):
 //!
 //! ```text
 //! OSIRIS_FUZZ_CASES=1000000 cargo test --release -p osiris-fmu --test input fuzz -- --nocapture

@@ -21,9 +21,11 @@
 //! * BVH2 trees are traversed by this module's stack traversal (`traverse.rs`: `tmin`-aware, the
 //!   stack keeps entry distances so nodes behind a closer hit are dropped unopened) over obvhs's
 //!   nodes; CWBVH trees by obvhs.
-//! * Batches group four consecutive coherent rays (common origin, directions within ≈ 8°) into
-//!   SIMD packets (`packet.rs`, Wald et al. 2001): one box or triangle test serves four rays. Each ray
-//!   gets what it would get alone (same per-lane arithmetic).
+//! * Batches group consecutive coherent rays (common origin, directions within ≈ 8°) into SIMD
+//!   packets (`packet.rs`, Wald et al. 2001): eight rays per packet (one AVX register per component)
+//!   where the CPU has AVX2 + FMA, else four (glam `Vec4`; also under `OSIRIS_SIMD=portable`, see
+//!   [`crate::cpu`]); the rest of a batch goes in fours or one by one. One box or triangle test serves
+//!   the whole packet. Each ray gets what it would get alone (same per-lane arithmetic).
 //! * The batch loops are compiled twice, for baseline x86-64 and for AVX2 + FMA, and picked at run
 //!   time (the workspace builds for baseline x86-64).
 //! * Triangles are tested with Möller–Trumbore accepting both signs of zero barycentrics (no holes
@@ -39,10 +41,13 @@
 //!
 //! # Performance (`osiris bench space`, see [`mod@bench`])
 //!
-//! Street of 1.04 M triangles (326 k static, 450 cars + 50 pedestrians instanced), 2-vCPU EPYC VM:
-//! BVH build 0.23–0.3 s, top-level update 0.15–0.3 ms for 500 moving objects, LiDAR pattern
-//! (128 × 1800) ≈ 6 Mrays/s on 1 thread and 8–10.6 Mrays/s on 2, random rays 1–2.3 Mrays/s
-//! (CWBVH: 1.7–3.4).
+//! Street of 1.04 M triangles (326 k static, 450 cars + 50 pedestrians instanced). Targets: ≥ 8
+//! Mrays/s for the coherent LiDAR pattern (128 × 1800, closest hit) on 2 threads, top-level update
+//! < 5 ms for 500 moving objects. With the 8-ray AVX2 packets on a quiet 2-vCPU VM: BVH build
+//! 0.13 s (2 threads) to 0.21 s (1), top-level update ≈ 0.12 ms, LiDAR pattern 9.0–9.4 Mrays/s on 1
+//! thread and 16.6–17.2 on 2, random rays 1.6 / 3.2 Mrays/s; CWBVH is faster on random rays but far
+//! slower on the coherent pattern, so BVH2 is the default. `docs/benchmarks.md` has the latest run
+//! with its machine.
 //!
 //! # Queries
 //!
