@@ -231,7 +231,7 @@ pub const SCHEMA: &str = "osiris-materials/1";
 /// Label of the built-in file in error messages.
 const BUILTIN_LABEL: &str = "materials.json (builtin)";
 /// The built-in starter set.
-const BUILTIN_JSON: &str = include_str!("../../resources/materials.json");
+const BUILTIN_JSON: &str = include_str!("../../../resources/materials.json");
 
 /// A sensor band of the optical (camera/LiDAR) models.
 #[derive(Debug, Clone, Copy, PartialEq)]
