@@ -1,26 +1,13 @@
-//! FMCW baseband: IF cube synthesis (samples × chirps × virtual channels) from the propagation
-//! paths with thermal noise and impairments, and the processing chain (range FFT, Doppler FFT,
-//! non-coherent integration, 2-D CFAR, peak interpolation, TDM Doppler-ambiguity hypothesis test,
-//! angle FFT with a joint fit of several targets per range-Doppler cell, angle gate) to
-//! detections.
+//! FMCW baseband, the waveform side of the chain: IF cube synthesis (samples × chirps × virtual
+//! channels) from the propagation paths with thermal noise and impairments, windowing, range FFT,
+//! Doppler FFT and non-coherent integration into the range-Doppler map. The detection side is a
+//! second `impl RadarChain` in [`super::processing`]: the 2-D CFAR (`processing/cfar.rs`) and,
+//! per CFAR hit, peak interpolation, TDM Doppler-ambiguity hypothesis test, angle FFT with a joint
+//! fit of several targets per range-Doppler cell and the angle gate (`processing/angle.rs`).
 //!
 //! API contract (used by the radar sensor): one [`RadarChain`] per model instance, planned once;
 //! the sensor declares its field of view ([`RadarChain::set_field_of_view`]); per frame
 //! [`RadarChain::run`] synthesises the IF cube from the paths and processes it into detections.
-//!
-//! # Angle gate
-//! A detection is reported only when its estimated direction lies inside the gate = declared
-//! field of view ∩ two-way main lobe of the Tx / Rx patterns
-//! ([`super::antenna::Antennas::main_lobe_rad`]; `ProcessingConfig::field_of_view_gate`), after
-//! the sines are folded into the array's unambiguous interval (period 2/g in sin-space, g the
-//! greatest common divisor of the virtual element offsets in λ/2). Outside the gate an estimate
-//! cannot be told from a sidelobe, grating-lobe or multipath-corrupted one (a single λ/2 vertical
-//! baseline puts a noisy or two-ray-corrupted elevation anywhere in ±90°), and the RCS estimate
-//! would divide by a gain that is not the main lobe's. Before the angle fit, the TDM-MIMO Doppler
-//! ambiguity is resolved ([`ProcessingConfig::velocity_disambiguation`]): with the folded range
-//! rate a target beyond ±v_max (every static object seen from a car faster than 37 km/h with the
-//! default waveform) gets Tx-slot phase errors 2π j t / N_tx that move its angle estimate by
-//! tens of degrees.
 //!
 //! # IF model (physics.md §1.6)
 //! Complex (IQ) ADC, IF = LO · conj(RX). Sample n of chirp m of virtual channel k = (Tx t, Rx r):
@@ -72,7 +59,7 @@ use super::antenna::{Antennas, FrontEndConfig};
 use super::processing::{self, CfarKind, MAX_ANGLE_PEAKS, ProcessingConfig};
 use super::waveform::{ArrayConfig, InterfererConfig, PhaseNoiseConfig, WaveformConfig};
 
-type C32 = Complex<f32>;
+pub(super) type C32 = Complex<f32>;
 
 /// `radar.receiver_compression`: AM/AM compression of the receiver and ADC clipping.
 pub const RECEIVER_COMPRESSION: EffectInfo = EffectInfo {
@@ -175,13 +162,13 @@ impl RangeDopplerMap {
 
 /// Per-frame path data after the in-band filter.
 #[derive(Debug, Clone, Copy)]
-struct PathPre {
-    beat_hz: f64,
-    range_rate_m_s: f64,
-    amplitude_sq_w: f64,
-    object_id: u64,
+pub(super) struct PathPre {
+    pub(super) beat_hz: f64,
+    pub(super) range_rate_m_s: f64,
+    pub(super) amplitude_sq_w: f64,
+    pub(super) object_id: u64,
     /// Horizontal direction sine of the two-way path, mean of Tx and Rx `cos el sin az`.
-    sin_az: f64,
+    pub(super) sin_az: f64,
 }
 
 /// Cells per rayon task.
@@ -189,23 +176,23 @@ const CELLS_PER_TASK: usize = 32;
 
 /// The baseband synthesis and signal processing, planned once (FFT plans, buffers).
 pub struct RadarChain {
-    ns: usize,
-    nc: usize,
-    ntx: usize,
-    nrx: usize,
-    nk: usize,
+    pub(super) ns: usize,
+    pub(super) nc: usize,
+    pub(super) ntx: usize,
+    pub(super) nrx: usize,
+    pub(super) nk: usize,
     ncell: usize,
-    fs_hz: f64,
-    slope: f64,
-    lambda_m: f64,
-    t_chirp_s: f64,
-    t_rep_s: f64,
+    pub(super) fs_hz: f64,
+    pub(super) slope: f64,
+    pub(super) lambda_m: f64,
+    pub(super) t_chirp_s: f64,
+    pub(super) t_rep_s: f64,
     t_adc_s: f64,
     start_freq_hz: f64,
-    tdm: bool,
+    pub(super) tdm: bool,
     tx: Vec<[i32; 2]>,
     rx: Vec<[i32; 2]>,
-    virt: Vec<[i32; 2]>,
+    pub(super) virt: Vec<[i32; 2]>,
     noise_var_w: f64,
     phase_noise: Option<PhaseNoiseConfig>,
     /// Chirp-averaged residual phase-noise σ (rad) at τ = i · `pn_tau_step_s` (empty when off).
@@ -214,27 +201,27 @@ pub struct RadarChain {
     interferer: Option<InterfererConfig>,
     /// Rapp A_sat (√W), smoothness p, ADC full scale per rail (√W).
     compression: Option<(f32, f32, f32)>,
-    proc: ProcessingConfig,
+    pub(super) proc: ProcessingConfig,
     range_win: Vec<f32>,
     doppler_win: Vec<f32>,
     /// Noise power of one range-Doppler cell of one channel, W-equivalent (σ² Σw_r² Σw_d²).
-    noise_cell: f64,
+    pub(super) noise_cell: f64,
     /// Coherent gain (Σw_r Σw_d)².
-    coherent_gain: f64,
+    pub(super) coherent_gain: f64,
     fft_range: Arc<dyn Fft<f32>>,
     fft_doppler: Arc<dyn Fft<f32>>,
-    fft_az: Arc<dyn Fft<f32>>,
-    az_len: usize,
-    el_len: usize,
-    y_min: i32,
-    has_el: bool,
-    angle_win: Vec<f32>,
+    pub(super) fft_az: Arc<dyn Fft<f32>>,
+    pub(super) az_len: usize,
+    pub(super) el_len: usize,
+    pub(super) y_min: i32,
+    pub(super) has_el: bool,
+    pub(super) angle_win: Vec<f32>,
     // CFAR tables per range bin: reference cell count and α.
-    cfar_count: Vec<usize>,
-    cfar_alpha: Vec<f64>,
-    cfar_alpha_half: f64,
+    pub(super) cfar_count: Vec<usize>,
+    pub(super) cfar_alpha: Vec<f64>,
+    pub(super) cfar_alpha_half: f64,
     // Per-frame buffers.
-    paths: Vec<PathPre>,
+    pub(super) paths: Vec<PathPre>,
     /// NUFFT: oversampled grid size, kernel half-width (rad), deconvolution per output sample.
     nufft_m: usize,
     nufft_alpha: f64,
@@ -257,67 +244,53 @@ pub struct RadarChain {
     cube_re: Vec<f32>,
     cube_im: Vec<f32>,
     spec: Vec<C32>,
-    dop: Vec<C32>,
-    power: Vec<f32>,
-    row_prefix: Vec<f64>,
-    col_out: Vec<f64>,
-    col_guard: Vec<f64>,
-    hits: Vec<(usize, usize)>,
-    os_scratch: Vec<f32>,
+    pub(super) dop: Vec<C32>,
+    pub(super) power: Vec<f32>,
+    pub(super) row_prefix: Vec<f64>,
+    pub(super) col_out: Vec<f64>,
+    pub(super) col_guard: Vec<f64>,
+    pub(super) hits: Vec<(usize, usize)>,
+    pub(super) os_scratch: Vec<f32>,
     timings_s: [f64; 4],
-    dets: Vec<[Option<ChainDetection>; MAX_ANGLE_PEAKS]>,
+    pub(super) dets: Vec<[Option<ChainDetection>; MAX_ANGLE_PEAKS]>,
     /// (range bin, Doppler bin, index) of every path, sorted by range bin.
-    path_bins: Vec<(f64, f64, u32)>,
+    pub(super) path_bins: Vec<(f64, f64, u32)>,
     /// Rows (elevation indices) of the angle grid holding virtual elements.
-    el_rows: Vec<usize>,
+    pub(super) el_rows: Vec<usize>,
     /// Σ w_k² of the angle window.
-    angle_win_sq: f64,
+    pub(super) angle_win_sq: f64,
     /// Per virtual element: index into `el_rows` of its row.
-    el_row_of: Vec<usize>,
+    pub(super) el_row_of: Vec<usize>,
     /// Per virtual element: its column is occupied in every row (matched sub-apertures for the
     /// elevation estimate).
-    el_match: Vec<bool>,
+    pub(super) el_match: Vec<bool>,
     /// Angular resolution in sin-space: main-lobe half width of the angle window, in cells of
     /// 2 / N_az (N_az: horizontal aperture in λ/2).
-    angle_res_sin: f64,
+    pub(super) angle_res_sin: f64,
     /// Two-way main lobe of the Tx / Rx patterns, `[az_min, az_max, el_min, el_max]` rad.
     lobe_rad: [f64; 4],
     /// Declared field of view (full horizontal, full vertical), rad; `None`: not declared.
     fov_rad: Option<(f64, f64)>,
     /// Angle gate: `lobe_rad` ∩ the declared field of view, rad.
-    gate_rad: [f64; 4],
+    pub(super) gate_rad: [f64; 4],
     /// Period in sin-space of the horizontal / vertical array response, `2/g` with g the greatest
     /// common divisor of the element offsets (λ/2 units); `None` for g ≤ 1 (no grating lobes in
     /// [−1, 1]) or no aperture.
-    sy_period: Option<f64>,
-    sz_period: Option<f64>,
+    pub(super) sy_period: Option<f64>,
+    pub(super) sz_period: Option<f64>,
     /// TDM Doppler-ambiguity hypotheses are tested (`velocity_disambiguation` and TDM-MIMO with
     /// compensation and more than one Tx).
-    disambiguate: bool,
+    pub(super) disambiguate: bool,
     /// Hypothesis test: per elevation sample inside the gate, the window × e^{jπ z s_z} weight of
     /// every virtual element (`[sample][k]`).
-    hyp_weights: Vec<Complex64>,
+    pub(super) hyp_weights: Vec<Complex64>,
     /// Hypothesis test: the azimuth FFT bins whose sine lies inside the gate.
-    hyp_bins: Vec<usize>,
+    pub(super) hyp_bins: Vec<usize>,
 }
-
-/// Re-estimation sweeps over all components after each new angle component (RELAX).
-const RELAX_SWEEPS: usize = 1;
-
-/// Gauss-Newton iterations (at most) of the joint azimuth refinement.
-const JOINT_ITERATIONS: usize = 12;
 
 /// Greatest common divisor (Euclid).
 fn gcd(a: u32, b: u32) -> u32 {
     if b == 0 { a } else { gcd(b, a % b) }
-}
-
-/// The representative of `s` in `[−period/2, period/2)` (`None`: `s` itself).
-fn principal(s: f64, period: Option<f64>) -> f64 {
-    match period {
-        Some(p) => s - p * (s / p + 0.5).floor(),
-        None => s,
-    }
 }
 
 /// e^{jε} for a small phase (polynomial), exact sincos beyond 0.3 rad.
@@ -1151,855 +1124,6 @@ impl RadarChain {
                 },
             );
     }
-
-    /// 2-D CFAR over the power map (Doppler circular, range truncated at the edges) → `hits`.
-    fn cfar(&mut self) {
-        let (ns, nc) = (self.ns, self.nc);
-        let cf = self.proc.cfar.clone();
-        let (gr, wr) = (cf.guard_range, cf.guard_range + cf.train_range);
-        let (gd, wd) = (cf.guard_doppler, cf.guard_doppler + cf.train_doppler);
-        let p = &self.power;
-        // Circular row prefix sums: row_prefix[n][j] = Σ_{i<j} P[n][(i) mod nc], j ∈ 0..=3nc.
-        let w = 3 * nc + 1;
-        for n in 0..ns {
-            let pre = &mut self.row_prefix[n * w..(n + 1) * w];
-            pre[0] = 0.0;
-            for j in 0..3 * nc {
-                pre[j + 1] = pre[j] + p[n * nc + j % nc] as f64;
-            }
-        }
-        let rp = &self.row_prefix;
-        // Sum of row n over Doppler offsets a..=b around d (−nc < a ≤ b < nc).
-        let row_sum = |n: usize, d: usize, a: isize, b: isize| -> f64 {
-            let lo = (d as isize + a + nc as isize) as usize;
-            let hi = (d as isize + b + nc as isize) as usize;
-            rp[n * w + hi + 1] - rp[n * w + lo]
-        };
-        // Column prefix over range of the outer / guard Doppler box sums.
-        for d in 0..nc {
-            self.col_out[d] = 0.0;
-            self.col_guard[d] = 0.0;
-        }
-        for n in 0..ns {
-            for d in 0..nc {
-                let o = row_sum(n, d, -(wd as isize), wd as isize);
-                let g = row_sum(n, d, -(gd as isize), gd as isize);
-                self.col_out[(n + 1) * nc + d] = self.col_out[n * nc + d] + o;
-                self.col_guard[(n + 1) * nc + d] = self.col_guard[n * nc + d] + g;
-            }
-        }
-        let (co, cg) = (&self.col_out, &self.col_guard);
-        let box_sum = |col: &Vec<f64>, n: usize, d: usize, r: usize| {
-            let lo = n.saturating_sub(r);
-            let hi = (n + r).min(ns - 1);
-            col[(hi + 1) * nc + d] - col[lo * nc + d]
-        };
-        let local_max = |n: usize, d: usize| {
-            let v = p[n * nc + d];
-            for dn in -1isize..=1 {
-                let nn = n as isize + dn;
-                if nn < 0 || nn >= ns as isize {
-                    continue;
-                }
-                for dd in -1isize..=1 {
-                    if dn == 0 && dd == 0 {
-                        continue;
-                    }
-                    let q =
-                        p[nn as usize * nc + (d as isize + dd).rem_euclid(nc as isize) as usize];
-                    // Ties: the first cell in scan order wins.
-                    if q > v || (q == v && (dn, dd) < (0, 0)) {
-                        return false;
-                    }
-                }
-            }
-            true
-        };
-        self.hits.clear();
-        let grouping = self.proc.peak_grouping;
-        for n in 0..ns {
-            for d in 0..nc {
-                let x = p[n * nc + d] as f64;
-                if grouping && !local_max(n, d) {
-                    continue;
-                }
-                let threshold = match cf.kind {
-                    CfarKind::Ca => {
-                        let sum = box_sum(co, n, d, wr) - box_sum(cg, n, d, gr);
-                        self.cfar_alpha[n] * sum / self.cfar_count[n] as f64
-                    }
-                    CfarKind::Go | CfarKind::So => {
-                        // Leading half: rows before n and the same row's lower Doppler cells;
-                        // lagging half: rows after n and the higher Doppler cells.
-                        let rows_sum = |lo: usize, hi: usize, col: &Vec<f64>| {
-                            if hi < lo {
-                                0.0
-                            } else {
-                                col[(hi + 1) * nc + d] - col[lo * nc + d]
-                            }
-                        };
-                        let lead_o = if n == 0 {
-                            0.0
-                        } else {
-                            rows_sum(n.saturating_sub(wr), n - 1, co)
-                        };
-                        let lead_g = if n == 0 {
-                            0.0
-                        } else {
-                            rows_sum(n.saturating_sub(gr), n - 1, cg)
-                        };
-                        let lag_o = rows_sum(n + 1, (n + wr).min(ns - 1), co);
-                        let lag_g = rows_sum(n + 1, (n + gr).min(ns - 1), cg);
-                        let side = if wd > gd {
-                            (
-                                row_sum(n, d, -(wd as isize), -(gd as isize) - 1),
-                                row_sum(n, d, gd as isize + 1, wd as isize),
-                            )
-                        } else {
-                            (0.0, 0.0)
-                        };
-                        let rows_cnt = |a: usize| a * (2 * wd + 1);
-                        let g_cnt = |a: usize| a * (2 * gd + 1);
-                        let lead_rows = n - n.saturating_sub(wr);
-                        let lead_grows = n - n.saturating_sub(gr);
-                        let lag_rows = (n + wr).min(ns - 1) - n;
-                        let lag_grows = (n + gr).min(ns - 1) - n;
-                        let c1 = rows_cnt(lead_rows) - g_cnt(lead_grows) + (wd - gd);
-                        let c2 = rows_cnt(lag_rows) - g_cnt(lag_grows) + (wd - gd);
-                        let m1 = (lead_o - lead_g + side.0) / c1.max(1) as f64;
-                        let m2 = (lag_o - lag_g + side.1) / c2.max(1) as f64;
-                        let z = match (c1 > 0, c2 > 0, cf.kind == CfarKind::Go) {
-                            (true, true, true) => m1.max(m2),
-                            (true, true, false) => m1.min(m2),
-                            (true, false, _) => m1,
-                            _ => m2,
-                        };
-                        self.cfar_alpha_half * z
-                    }
-                    CfarKind::Os => {
-                        let s = &mut self.os_scratch;
-                        s.clear();
-                        let (lo, hi) = (n.saturating_sub(wr), (n + wr).min(ns - 1));
-                        for nn in lo..=hi {
-                            for dd in -(wd as isize)..=(wd as isize) {
-                                if nn.abs_diff(n) <= gr && dd.unsigned_abs() <= gd {
-                                    continue;
-                                }
-                                s.push(
-                                    p[nn * nc + (d as isize + dd).rem_euclid(nc as isize) as usize],
-                                );
-                            }
-                        }
-                        let k = processing::os_rank_index(s.len(), cf.os_rank);
-                        let (_, v, _) = s.select_nth_unstable_by(k, |a, b| a.total_cmp(b));
-                        self.cfar_alpha[n] * *v as f64
-                    }
-                };
-                if x > threshold {
-                    self.hits.push((n, d));
-                }
-            }
-        }
-    }
-
-    /// Interpolation, angle, power, SNR and object id of every CFAR hit (hits in parallel).
-    fn estimate(&mut self, out: &mut Vec<ChainDetection>) {
-        let start = out.len();
-        // Paths by range bin, for the object-id look-up.
-        let dv = self.lambda_m / (2.0 * self.nc as f64 * self.t_rep_s);
-        let bins_per_hz = self.ns as f64 / self.fs_hz;
-        self.path_bins.clear();
-        self.path_bins.extend(
-            self.paths
-                .iter()
-                .enumerate()
-                .map(|(i, p)| (p.beat_hz * bins_per_hz, p.range_rate_m_s / dv, i as u32)),
-        );
-        self.path_bins.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let hits = std::mem::take(&mut self.hits);
-        let mut dets = std::mem::take(&mut self.dets);
-        let this = &*self;
-        hits.par_iter()
-            .map_init(
-                || this.angle_bufs(),
-                |b, &(n, d)| this.estimate_one(n, d, b),
-            )
-            .collect_into_vec(&mut dets);
-        out.extend(dets.iter().flatten().flatten());
-        self.hits = hits;
-        self.dets = dets;
-        let max = self.proc.max_detections;
-        if out.len() - start > max {
-            out[start..].sort_by(|a, b| b.power_dbm.total_cmp(&a.power_dbm));
-            out.truncate(start + max);
-        }
-    }
-
-    fn angle_bufs(&self) -> AngleBufs {
-        AngleBufs {
-            line: vec![C32::default(); self.az_len],
-            scratch: vec![C32::default(); self.fft_az.get_inplace_scratch_len()],
-            x: vec![Complex64::default(); self.nk],
-            d: vec![Complex64::default(); self.nk],
-            steer: vec![Complex64::default(); MAX_ANGLE_PEAKS * self.nk],
-            rows: vec![Complex64::default(); self.el_rows.len()],
-            tmp: vec![Complex64::default(); self.nk],
-            r: vec![Complex64::default(); self.nk],
-            r0: vec![Complex64::default(); self.nk],
-            jac: vec![Complex64::default(); MAX_ANGLE_PEAKS * self.nk],
-        }
-    }
-
-    /// One CFAR hit at range bin `n`, Doppler bin `d` → up to `max_angle_peaks_per_cell`
-    /// detections, one per resolved angle component (none below `min_snr_db`, none outside the
-    /// angle gate). The cell's channel vector is compensated with the range rate the TDM
-    /// hypothesis test picks ([`Self::disambiguate_velocity`]).
-    ///
-    /// Several targets in one cell (same range and Doppler) are separated in angle by a
-    /// sequential fit (CLEAN / RELAX: Li & Stoica, "Efficient mixed-spectrum estimation with
-    /// applications to target feature extraction", IEEE Trans. SP 44(2), 1996): the strongest
-    /// peak of the zero-padded azimuth spectrum gives a component (interpolated azimuth sine,
-    /// elevation, least-squares amplitude); its steering vector is subtracted and the residual's
-    /// spectrum gives the next candidate (each existing component is then re-fitted once within
-    /// half a resolution cell of its position, the others subtracted). Candidates stop when one
-    /// fails (a) or (b) below or lies within half a cell of a component. The complete set is then
-    /// refined jointly (Gauss-Newton on the variable-projection cost, [`Self::refine_jointly`]:
-    /// close, in-phase targets bias a one-at-a-time fit by up to a few degrees) and accepted when
-    /// every component but the strongest (a) has a beam power within
-    /// `angle_peak_dynamic_range_db` of the strongest, (b) clears both `min_snr_db` and the
-    /// noise-referred threshold `ln(1/P_FA)` (a noise-only beam output is exponential:
-    /// P(|b|² > T σ²) = e^{−T}; `P_FA` of the CFAR), (c) lies at least one angular resolution
-    /// cell from every other component (main-lobe half width: 2/N_az in sin-space for the
-    /// rectangular window, 4/N_az for Hann, N_az the horizontal aperture in λ/2); otherwise the
-    /// weakest component is dropped and the rest refined again. Subtracting the fitted components
-    /// removes their window sidelobes, so sidelobes never become detections (the rectangular
-    /// window's −13 dB sidelobes lie within the default 15 dB dynamic range and 1.5 cells from
-    /// the main lobe: a plain local-maximum search would report them).
-    // Small dense linear algebra over component indices: index loops are the clearest form.
-    #[allow(clippy::needless_range_loop)]
-    fn estimate_one(
-        &self,
-        n: usize,
-        d: usize,
-        b: &mut AngleBufs,
-    ) -> [Option<ChainDetection>; MAX_ANGLE_PEAKS] {
-        let mut res = [None; MAX_ANGLE_PEAKS];
-        let (ns, nc, nk) = (self.ns, self.nc, self.nk);
-        let dv = self.lambda_m / (2.0 * nc as f64 * self.t_rep_s);
-        let p = &self.power;
-        let ln = |v: f32| (v.max(1e-38) as f64).ln();
-        let v0 = p[n * nc + d];
-        // Gaussian (parabolic in ln P) interpolation in range and Doppler.
-        let (dn, lr) = if n > 0 && n + 1 < ns {
-            processing::parabolic_peak(ln(p[(n - 1) * nc + d]), ln(v0), ln(p[(n + 1) * nc + d]))
-        } else {
-            (0.0, ln(v0))
-        };
-        let (dd, ld) = processing::parabolic_peak(
-            ln(p[n * nc + (d + nc - 1) % nc]),
-            ln(v0),
-            ln(p[n * nc + (d + 1) % nc]),
-        );
-        let peak = (lr + ld - ln(v0)).exp();
-        let d_signed = if d >= nc / 2 {
-            d as f64 - nc as f64
-        } else {
-            d as f64
-        };
-        // Range rate of the Doppler bin (folded into ±v_max), then unfolded by the TDM hypothesis
-        // test; `b.x` holds the cell's channel vector compensated with it.
-        let v = if self.disambiguate {
-            self.disambiguate_velocity(n, d, (d_signed + dd) * dv, b)
-        } else {
-            let v = (d_signed + dd) * dv;
-            self.load_cell(n, d, v, b);
-            v
-        };
-        let fb = (n as f64 + dn) * self.fs_hz / ns as f64;
-        let range = SPEED_OF_LIGHT_M_S * (fb - 2.0 * v / self.lambda_m) / (2.0 * self.slope);
-        let noise_beam = self.noise_cell * self.angle_win_sq;
-        let snr_db_of = |beam: f64| 10.0 * ((beam - noise_beam) / noise_beam).max(1e-12).log10();
-        let maxp = self.proc.max_angle_peaks_per_cell.clamp(1, MAX_ANGLE_PEAKS);
-        let mut comps = [AngleComp::default(); MAX_ANGLE_PEAKS];
-        b.d.copy_from_slice(&b.x);
-        comps[0] = self.fit_component(b, 0, None);
-        if snr_db_of(comps[0].beam) < self.proc.min_snr_db {
-            return res;
-        }
-        let mut count = 1;
-        // Secondary peaks: beam/noise ≥ ln(1/P_FA) and ≥ 1 + 10^{min_snr/10}.
-        let min_ratio = (1.0 / self.proc.cfar.p_fa)
-            .ln()
-            .max(1.0 + 10f64.powf(self.proc.min_snr_db / 10.0));
-        let dyn_range = 10f64.powf(-self.proc.angle_peak_dynamic_range_db / 10.0);
-        while count < maxp {
-            // Residual after all components; its strongest peak is the candidate.
-            self.residual(b, &comps[..count], usize::MAX);
-            let cand = self.fit_component(b, count, None);
-            let strongest = comps[..count].iter().map(|c| c.beam).fold(0.0, f64::max);
-            let crowded = comps[..count]
-                .iter()
-                .any(|c| (c.sy - cand.sy).abs() < 0.5 * self.angle_res_sin);
-            if crowded || cand.beam < dyn_range * strongest || cand.beam < min_ratio * noise_beam {
-                break;
-            }
-            comps[count] = cand;
-            count += 1;
-            // RELAX sweeps, each component re-fitted near its position with the others removed.
-            for _ in 0..RELAX_SWEEPS {
-                for j in 0..count {
-                    self.residual(b, &comps[..count], j);
-                    comps[j] = self.fit_component(b, j, Some(comps[j].sy));
-                }
-            }
-        }
-        // Joint refinement of the complete model, then acceptance; a failing set loses its
-        // weakest component and is refined again.
-        while count > 1 {
-            self.refine_jointly(b, &mut comps[..count]);
-            if self.components_ok(&comps[..count], dyn_range, min_ratio * noise_beam) {
-                break;
-            }
-            let weakest = (0..count)
-                .min_by(|&i, &l| comps[i].beam.total_cmp(&comps[l].beam))
-                .unwrap_or(0);
-            comps.copy_within(weakest + 1..count, weakest);
-            count -= 1;
-            for j in 0..count {
-                self.steering(comps[j].sy, comps[j].sz, b, j);
-            }
-            if count == 1 {
-                self.residual(b, &comps[..1], 0);
-                comps[0] = self.fit_component(b, 0, Some(comps[0].sy));
-            }
-        }
-        let comps = &mut comps[..count];
-        comps.sort_by(|a, b| b.beam.total_cmp(&a.beam));
-        // Power: per-channel amplitude minus its noise (E|â|² = |a|² + σ²_cell/N_k), straddle
-        // corrected with the range-Doppler interpolation (peak / v0).
-        let straddle = peak / (v0 as f64).max(1e-38);
-        let (rb, db) = (n as f64 + dn, d_signed + dd);
-        for (slot, c) in res.iter_mut().zip(comps.iter()) {
-            let snr_db = snr_db_of(c.beam);
-            if snr_db < self.proc.min_snr_db {
-                continue;
-            }
-            // Sines folded into the array's unambiguous interval (sparse arrays).
-            let sz = principal(c.sz, self.sz_period);
-            let sy = principal(c.sy, self.sy_period);
-            let el = sz.clamp(-1.0, 1.0).asin();
-            let az = (sy / el.cos().max(1e-9)).clamp(-1.0, 1.0).asin();
-            let g = &self.gate_rad;
-            if self.proc.field_of_view_gate
-                && !(az >= g[0] && az <= g[1] && el >= g[2] && el <= g[3])
-            {
-                continue;
-            }
-            let sig = ((c.amp.norm_sqr() - self.noise_cell / nk as f64) * straddle).max(1e-30);
-            let power_w = sig / self.coherent_gain;
-            *slot = Some(ChainDetection {
-                range_m: range,
-                range_rate_m_s: v,
-                azimuth_rad: az,
-                elevation_rad: el,
-                power_dbm: 10.0 * (power_w * 1e3).log10(),
-                snr_db,
-                object_id: self.object_of(rb, db, c.sy),
-            });
-        }
-        res
-    }
-
-    /// `b.x` ← the channel vector of cell (`n`, `d`) with the TDM Doppler phase of each Tx slot
-    /// for range rate `v` removed (`tdm_doppler_compensation`). A virtual element at (y, z) (λ/2
-    /// units) sees x ∝ e^{−jπ(y s_y + z s_z)}, s_y = cos el sin az, s_z = sin el.
-    fn load_cell(&self, n: usize, d: usize, v: f64, b: &mut AngleBufs) {
-        let (nk, nc) = (self.nk, self.nc);
-        for k in 0..nk {
-            let mut x = self.dop[(n * nk + k) * nc + d];
-            if self.tdm && self.proc.tdm_doppler_compensation {
-                let t = k / self.nrx;
-                let ph =
-                    -4.0 * std::f64::consts::PI * v * t as f64 * self.t_chirp_s / self.lambda_m;
-                x *= C32::new(ph.cos() as f32, ph.sin() as f32);
-            }
-            b.x[k] = Complex64::new(x.re as f64, x.im as f64);
-        }
-    }
-
-    /// TDM-MIMO Doppler ambiguity (`ProcessingConfig::velocity_disambiguation`): the range rate
-    /// `v_folded` of the Doppler bin is `v + 2 v_max j` for an unknown integer j
-    /// (`2 v_max = λ / (2 N_tx T_c)`); compensating the Tx slots with the wrong j leaves slot t a
-    /// phase error 2π j t / N_tx (the N_tx residues of j are distinguishable, the rest is not).
-    /// Each of the N_tx hypotheses with `v ∈ [−N_tx v_max, N_tx v_max)` is compensated, and the
-    /// one with the strongest beam `|Σ_k w_k x_k e^{jπ(y_k s_y + z_k s_z)}|²` over the angle gate
-    /// (azimuth FFT bins inside it, elevation samples across it) wins; ties keep the folded rate
-    /// (j = 0). The winner's vector is left in `b.x`; returns its range rate.
-    fn disambiguate_velocity(&self, n: usize, d: usize, v_folded: f64, b: &mut AngleBufs) -> f64 {
-        let two_vmax = self.lambda_m / (2.0 * self.t_rep_s);
-        let n_h = self.ntx as i64;
-        let v_ext = 0.5 * n_h as f64 * two_vmax;
-        let j0 = ((-v_ext - v_folded) / two_vmax).ceil() as i64;
-        let (mut best_v, mut best_m) = (v_folded, f64::NEG_INFINITY);
-        for j in std::iter::once(0).chain((j0..j0 + n_h).filter(|&j| j != 0)) {
-            let v = v_folded + two_vmax * j as f64;
-            self.load_cell(n, d, v, b);
-            let m = self.gate_beam_peak(b);
-            // A relative margin: hypotheses the array cannot tell apart tie up to rounding.
-            if m > best_m * (1.0 + 1e-9) {
-                (best_v, best_m) = (v, m);
-            }
-        }
-        self.load_cell(n, d, best_v, b);
-        best_v
-    }
-
-    /// The strongest beam power of `b.x` inside the angle gate: for each elevation sample of
-    /// the gate, the windowed aperture steered to it and projected onto the horizontal axis,
-    /// zero-padded azimuth FFT, maximum over the bins inside the gate.
-    fn gate_beam_peak(&self, b: &mut AngleBufs) -> f64 {
-        let nk = self.nk;
-        let mut best = 0f64;
-        for wts in self.hyp_weights.chunks_exact(nk) {
-            b.line.fill(C32::default());
-            for ((xk, p), w) in b.x.iter().zip(&self.virt).zip(wts) {
-                let v = xk * w;
-                b.line[(p[0] - self.y_min) as usize] += C32::new(v.re as f32, v.im as f32);
-            }
-            self.fft_az
-                .process_with_scratch(&mut b.line, &mut b.scratch);
-            for &q in &self.hyp_bins {
-                best = best.max(b.line[q].norm_sqr() as f64);
-            }
-        }
-        best
-    }
-
-    /// Concentrated least-squares cost `‖x − E(s) â‖²` of the components (steering vectors in
-    /// `b.steer`, component `j` replaced by azimuth sine `sy_j` when given), with the amplitudes
-    /// `â = (EᴴE)⁻¹ Eᴴ x` solved jointly (written to `amps`).
-    // Small dense linear algebra over component indices: index loops are the clearest form.
-    #[allow(clippy::needless_range_loop)]
-    fn joint_cost(
-        &self,
-        b: &mut AngleBufs,
-        comps: &[AngleComp],
-        replace: Option<(usize, f64)>,
-        amps: &mut [Complex64; MAX_ANGLE_PEAKS],
-    ) -> f64 {
-        let nk = self.nk;
-        let kc = comps.len();
-        if let Some((j, sy)) = replace {
-            for (e, p) in b.tmp.iter_mut().zip(&self.virt) {
-                let ph = -std::f64::consts::PI * (p[0] as f64 * sy + p[1] as f64 * comps[j].sz);
-                *e = Complex64::from_polar(1.0, ph);
-            }
-        }
-        let col = |b: &AngleBufs, i: usize, k: usize| match replace {
-            Some((j, _)) if j == i => b.tmp[k],
-            _ => b.steer[i * nk + k],
-        };
-        let mut g = [[Complex64::default(); MAX_ANGLE_PEAKS + 1]; MAX_ANGLE_PEAKS];
-        for i in 0..kc {
-            for l in 0..kc {
-                let mut s = Complex64::default();
-                for k in 0..nk {
-                    s += col(b, i, k).conj() * col(b, l, k);
-                }
-                g[i][l] = s;
-            }
-            let mut r = Complex64::default();
-            for k in 0..nk {
-                r += col(b, i, k).conj() * b.x[k];
-            }
-            g[i][kc] = r;
-        }
-        // Gaussian elimination with partial pivoting on the augmented K × (K+1) system.
-        for c in 0..kc {
-            let piv = (c..kc)
-                .max_by(|&a, &bb| g[a][c].norm_sqr().total_cmp(&g[bb][c].norm_sqr()))
-                .unwrap_or(c);
-            g.swap(c, piv);
-            let d = g[c][c];
-            if d.norm_sqr() < 1e-30 {
-                return f64::INFINITY;
-            }
-            for r in c + 1..kc {
-                let f = g[r][c] / d;
-                for cc in c..=kc {
-                    let v = g[c][cc];
-                    g[r][cc] -= f * v;
-                }
-            }
-        }
-        for c in (0..kc).rev() {
-            let mut s = g[c][kc];
-            for cc in c + 1..kc {
-                s -= g[c][cc] * amps[cc];
-            }
-            amps[c] = s / g[c][c];
-        }
-        // ‖x − E â‖² = ‖x‖² − Re(rᴴ â) at the LS solution; evaluated directly for robustness.
-        let mut j = 0.0;
-        for k in 0..nk {
-            let mut m = b.x[k];
-            for (i, a) in amps.iter().enumerate().take(kc) {
-                m -= a * col(b, i, k);
-            }
-            j += m.norm_sqr();
-            b.r[k] = m;
-        }
-        j
-    }
-
-    /// Joint refinement of the azimuths of several components: Gauss-Newton on the projected
-    /// residual `x − E(s)(EᴴE)⁻¹Eᴴx` (variable projection: amplitudes solved jointly at every
-    /// evaluation; Golub & Pereyra, SIAM J. Numer. Anal. 10(2), 1973), forward-difference
-    /// Jacobian, step halving until the cost falls; then joint amplitudes, elevations
-    /// (matched sub-apertures on each component's data) and beam powers.
-    // Small dense linear algebra over component indices: index loops are the clearest form.
-    #[allow(clippy::needless_range_loop)]
-    fn refine_jointly(&self, b: &mut AngleBufs, comps: &mut [AngleComp]) {
-        let kc = comps.len();
-        let mut amps = [Complex64::default(); MAX_ANGLE_PEAKS];
-        let nk = self.nk;
-        const DELTA: f64 = 1e-6;
-        let max_step = 0.5 * self.angle_res_sin;
-        for _ in 0..JOINT_ITERATIONS {
-            let j0 = self.joint_cost(b, comps, None, &mut amps);
-            b.r0.copy_from_slice(&b.r);
-            // Jacobian of the projected residual by forward differences, one column per azimuth.
-            for j in 0..kc {
-                self.joint_cost(b, comps, Some((j, comps[j].sy + DELTA)), &mut amps);
-                for k in 0..nk {
-                    b.jac[j * nk + k] = (b.r[k] - b.r0[k]) / DELTA;
-                }
-            }
-            // Gauss-Newton normal equations over real Δs (Levenberg damping 1e-9 · trace).
-            let mut a = [[0f64; MAX_ANGLE_PEAKS + 1]; MAX_ANGLE_PEAKS];
-            for i in 0..kc {
-                for l in 0..kc {
-                    a[i][l] = (0..nk)
-                        .map(|k| (b.jac[i * nk + k].conj() * b.jac[l * nk + k]).re)
-                        .sum();
-                }
-                a[i][kc] = -(0..nk)
-                    .map(|k| (b.jac[i * nk + k].conj() * b.r0[k]).re)
-                    .sum::<f64>();
-            }
-            let trace: f64 = (0..kc).map(|i| a[i][i]).sum();
-            for (i, row) in a.iter_mut().enumerate().take(kc) {
-                row[i] += 1e-9 * trace + 1e-300;
-            }
-            let mut step = [0f64; MAX_ANGLE_PEAKS];
-            if !solve_real(&mut a, kc, &mut step) {
-                break;
-            }
-            let mut scale = 1.0;
-            let mut accepted = false;
-            for _ in 0..6 {
-                for j in 0..kc {
-                    let sy = (comps[j].sy + (scale * step[j]).clamp(-max_step, max_step))
-                        .clamp(-1.0, 1.0);
-                    self.steering(sy, comps[j].sz, b, j);
-                }
-                // Components may not merge (ill-conditioned pairs of nearly equal steering
-                // vectors with large opposite amplitudes): keep them half a cell apart.
-                let mut apart = true;
-                for i in 0..kc {
-                    for l in i + 1..kc {
-                        let si = comps[i].sy + (scale * step[i]).clamp(-max_step, max_step);
-                        let sl = comps[l].sy + (scale * step[l]).clamp(-max_step, max_step);
-                        apart &= (si - sl).abs() >= 0.5 * self.angle_res_sin;
-                    }
-                }
-                if apart && self.joint_cost(b, comps, None, &mut amps) < j0 {
-                    accepted = true;
-                    break;
-                }
-                scale *= 0.5;
-            }
-            let mut moved = 0f64;
-            for j in 0..kc {
-                if accepted {
-                    let d = (scale * step[j]).clamp(-max_step, max_step);
-                    comps[j].sy = (comps[j].sy + d).clamp(-1.0, 1.0);
-                    moved = moved.max(d.abs());
-                }
-                self.steering(comps[j].sy, comps[j].sz, b, j);
-            }
-            if !accepted || moved < 1e-7 {
-                break;
-            }
-        }
-        self.joint_cost(b, comps, None, &mut amps);
-        for (c, a) in comps.iter_mut().zip(&amps) {
-            c.amp = *a;
-        }
-        // Elevation and beam of each component from its own data (the others subtracted).
-        for j in 0..kc {
-            self.residual(b, comps, j);
-            let sz = self.elevation_sine(b, comps[j].sy);
-            comps[j].sz = sz;
-            self.steering(comps[j].sy, sz, b, j);
-            let mut beam = Complex64::default();
-            let nk = self.nk;
-            for ((dk, e), w) in
-                b.d.iter()
-                    .zip(&b.steer[j * nk..(j + 1) * nk])
-                    .zip(&self.angle_win)
-            {
-                beam += dk * e.conj() * *w as f64;
-            }
-            comps[j].beam = beam.norm_sqr();
-        }
-        self.joint_cost(b, comps, None, &mut amps);
-        for (c, a) in comps.iter_mut().zip(&amps) {
-            c.amp = *a;
-        }
-    }
-
-    /// `b.d = b.x − Σ_{j ≠ skip} a_j e_j` (steering vectors in `b.steer`).
-    fn residual(&self, b: &mut AngleBufs, comps: &[AngleComp], skip: usize) {
-        let nk = self.nk;
-        b.d.copy_from_slice(&b.x);
-        for (j, c) in comps.iter().enumerate() {
-            if j == skip {
-                continue;
-            }
-            for (dk, e) in b.d.iter_mut().zip(&b.steer[j * nk..(j + 1) * nk]) {
-                *dk -= c.amp * e;
-            }
-        }
-    }
-
-    /// Steering vector `e^{−jπ(y s_y + z s_z)}` of component slot `j` into `b.steer`.
-    fn steering(&self, sy: f64, sz: f64, b: &mut AngleBufs, j: usize) {
-        let nk = self.nk;
-        for (e, p) in b.steer[j * nk..(j + 1) * nk].iter_mut().zip(&self.virt) {
-            let ph = -std::f64::consts::PI * (p[0] as f64 * sy + p[1] as f64 * sz);
-            *e = Complex64::from_polar(1.0, ph);
-        }
-    }
-
-    /// One component from `b.d`: azimuth from the strongest peak of the zero-padded spectrum of
-    /// the windowed aperture projected onto the horizontal axis (the elevation-0 beam; rows
-    /// sharing their phase centre keep it unbiased), parabolic interpolation; elevation from the
-    /// matched sub-apertures; least-squares amplitude. Steering vector into slot `j`.
-    fn fit_component(&self, b: &mut AngleBufs, j: usize, near: Option<f64>) -> AngleComp {
-        let az_len = self.az_len;
-        b.line.fill(C32::default());
-        for ((dk, p), w) in b.d.iter().zip(&self.virt).zip(&self.angle_win) {
-            let iy = (p[0] - self.y_min) as usize;
-            b.line[iy] += C32::new((dk.re * *w as f64) as f32, (dk.im * *w as f64) as f32);
-        }
-        self.fft_az
-            .process_with_scratch(&mut b.line, &mut b.scratch);
-        let (mut best, mut qy) = (-1f32, 0usize);
-        // Bin of a sine: q = −s A / 2 (mod A); a re-fit stays within half a resolution cell.
-        let window = near.map(|s0| {
-            let q0 = (-s0 * az_len as f64 / 2.0).rem_euclid(az_len as f64);
-            (q0, 0.25 * self.angle_res_sin * az_len as f64)
-        });
-        for (i, v) in b.line.iter().enumerate() {
-            if let Some((q0, half)) = window {
-                let dq = (i as f64 - q0).rem_euclid(az_len as f64);
-                if dq.min(az_len as f64 - dq) > half {
-                    continue;
-                }
-            }
-            let m = v.norm_sqr();
-            if m > best {
-                best = m;
-                qy = i;
-            }
-        }
-        let mag = |i: usize| b.line[i % az_len].norm_sqr() as f64;
-        let (oy, _) = processing::parabolic_peak(mag(qy + az_len - 1), best as f64, mag(qy + 1));
-        let signed = if qy >= az_len / 2 {
-            qy as f64 - az_len as f64
-        } else {
-            qy as f64
-        };
-        let sy = (-2.0 * (signed + oy) / az_len as f64).clamp(-1.0, 1.0);
-        let sz = self.elevation_sine(b, sy);
-        self.steering(sy, sz, b, j);
-        let nk = self.nk;
-        let (mut a, mut beam) = (Complex64::default(), Complex64::default());
-        for ((dk, e), w) in
-            b.d.iter()
-                .zip(&b.steer[j * nk..(j + 1) * nk])
-                .zip(&self.angle_win)
-        {
-            let t = dk * e.conj();
-            a += t;
-            beam += t * *w as f64;
-        }
-        AngleComp {
-            sy,
-            sz,
-            amp: a / nk as f64,
-            beam: beam.norm_sqr(),
-        }
-    }
-
-    /// Elevation sine of the data in `b.d` at azimuth sine `sy`: each occupied row is steered to
-    /// `sy` over the columns common to all rows (identical horizontal sub-apertures, so targets
-    /// sharing one elevation leave no inter-row phase, whatever their azimuths), then the row
-    /// phases give s_z: for two rows `s_z = −arg(S₁ S₀*) / (π Δz)`; for more, the maximum of
-    /// `|Σ_r S_r e^{jπ z_r s}|` on a fine grid, interpolated.
-    fn elevation_sine(&self, b: &mut AngleBufs, sy: f64) -> f64 {
-        if !self.has_el || self.el_rows.len() < 2 {
-            return 0.0;
-        }
-        b.rows.fill(Complex64::default());
-        for (k, (dk, p)) in b.d.iter().zip(&self.virt).enumerate() {
-            if self.el_match[k] {
-                let ph = std::f64::consts::PI * p[0] as f64 * sy;
-                b.rows[self.el_row_of[k]] += dk * Complex64::from_polar(1.0, ph);
-            }
-        }
-        let rz = |ri: usize| self.el_rows[ri] as f64;
-        if self.el_rows.len() == 2 {
-            let dz = rz(1) - rz(0);
-            return (-(b.rows[1] * b.rows[0].conj()).arg() / (std::f64::consts::PI * dz))
-                .clamp(-1.0, 1.0);
-        }
-        let m = 8 * self.el_len;
-        let val = |i: usize| {
-            let s = -1.0 + 2.0 * (i % m) as f64 / m as f64;
-            b.rows
-                .iter()
-                .enumerate()
-                .map(|(ri, sr)| sr * Complex64::from_polar(1.0, std::f64::consts::PI * rz(ri) * s))
-                .sum::<Complex64>()
-                .norm_sqr()
-        };
-        let (mut best, mut bi) = (-1.0, 0);
-        for i in 0..m {
-            let v = val(i);
-            if v > best {
-                best = v;
-                bi = i;
-            }
-        }
-        let (o, _) = processing::parabolic_peak(val(bi + m - 1), best, val(bi + 1));
-        (-1.0 + 2.0 * (bi as f64 + o) / m as f64).clamp(-1.0, 1.0)
-    }
-
-    /// Acceptance of a set of components: every one but the strongest within the dynamic range
-    /// of the strongest and above `min_beam`; no two closer than the angular resolution.
-    fn components_ok(&self, comps: &[AngleComp], dyn_range: f64, min_beam: f64) -> bool {
-        let strongest = comps.iter().map(|c| c.beam).fold(0.0, f64::max);
-        for (i, c) in comps.iter().enumerate() {
-            if c.beam < strongest && (c.beam < dyn_range * strongest || c.beam < min_beam) {
-                return false;
-            }
-            for o in &comps[i + 1..] {
-                if (c.sy - o.sy).abs() < self.angle_res_sin {
-                    return false;
-                }
-            }
-        }
-        true
-    }
-
-    /// Object of a detection at range bin `rb`, signed Doppler bin `db`, azimuth sine `sy`: among
-    /// the paths within one bin in range and Doppler, the nearest in azimuth (paths within half
-    /// a resolution cell of each other count as equally near), the strongest among those.
-    fn object_of(&self, rb: f64, db: f64, sy: f64) -> u64 {
-        let ncf = self.nc as f64;
-        let first = self.path_bins.partition_point(|x| x.0 < rb - 1.0);
-        let half = 0.5 * self.angle_res_sin;
-        // (azimuth distance, −power, id)
-        let mut obj: Option<(f64, f64, u64)> = None;
-        for &(pr, pd, i) in self.path_bins[first..]
-            .iter()
-            .take_while(|x| x.0 <= rb + 1.0)
-        {
-            if (pr - rb).abs() > 1.0 {
-                continue;
-            }
-            let diff = (pd - db).rem_euclid(ncf);
-            if diff.min(ncf - diff) > 1.0 {
-                continue;
-            }
-            let path = &self.paths[i as usize];
-            let dist = (path.sin_az - sy).abs();
-            let dist = if dist < half { 0.0 } else { dist };
-            let key = (dist, -path.amplitude_sq_w, path.object_id);
-            if obj.is_none_or(|o| (key.0, key.1) < (o.0, o.1)) {
-                obj = Some(key);
-            }
-        }
-        obj.map_or(osiris_proto::INVALID_ID, |o| o.2)
-    }
-}
-
-/// Per-worker buffers of the angle FFT.
-struct AngleBufs {
-    /// Zero-padded azimuth line (all rows projected onto the horizontal axis).
-    line: Vec<C32>,
-    scratch: Vec<C32>,
-    /// The cell's virtual-channel vector after TDM compensation.
-    x: Vec<Complex64>,
-    /// Data of one component (x minus the other components).
-    d: Vec<Complex64>,
-    /// Steering vectors of the components, `[component][k]`.
-    steer: Vec<Complex64>,
-    /// Matched-aperture row sums for the elevation estimate.
-    rows: Vec<Complex64>,
-    /// A trial steering vector.
-    tmp: Vec<Complex64>,
-    /// Projected residuals (current, reference) and their Jacobian `[component][k]`.
-    r: Vec<Complex64>,
-    r0: Vec<Complex64>,
-    jac: Vec<Complex64>,
-}
-
-/// Solve the `n × n` real system augmented in column `n` (partial pivoting); false if singular.
-// Small dense linear algebra over component indices: index loops are the clearest form.
-#[allow(clippy::needless_range_loop)]
-fn solve_real(
-    a: &mut [[f64; MAX_ANGLE_PEAKS + 1]; MAX_ANGLE_PEAKS],
-    n: usize,
-    x: &mut [f64; MAX_ANGLE_PEAKS],
-) -> bool {
-    for c in 0..n {
-        let piv = (c..n)
-            .max_by(|&p, &q| a[p][c].abs().total_cmp(&a[q][c].abs()))
-            .unwrap_or(c);
-        a.swap(c, piv);
-        if a[c][c].abs().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-            return false;
-        }
-        for r in c + 1..n {
-            let f = a[r][c] / a[c][c];
-            for cc in c..=n {
-                a[r][cc] -= f * a[c][cc];
-            }
-        }
-    }
-    for c in (0..n).rev() {
-        let mut s = a[c][n];
-        for cc in c + 1..n {
-            s -= a[c][cc] * x[cc];
-        }
-        x[c] = s / a[c][c];
-    }
-    x[..n].iter().all(|v| v.is_finite())
-}
-
-/// One angle component of a range-Doppler cell.
-#[derive(Debug, Clone, Copy, Default)]
-struct AngleComp {
-    /// Direction sines `cos el sin az`, `sin el`.
-    sy: f64,
-    sz: f64,
-    /// Least-squares complex amplitude per channel.
-    amp: Complex64,
-    /// Windowed beamformer output power `|Σ w_k d_k a_k*|²`.
-    beam: f64,
 }
 
 /// Rapp AM/AM compression, then I/Q clipping at the ADC full scale.

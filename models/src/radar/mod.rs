@@ -7,24 +7,25 @@
 //! * [`antenna`]: Tx/Rx antenna gain patterns (table or parametric).
 //! * [`waveform`]: chirp sequence and MIMO array (virtual array) parameters and derived quantities.
 //! * [`baseband`]: IF cube synthesis (samples × chirps × virtual channels) with noise and
-//!   impairments.
-//! * [`processing`]: windowed range / Doppler FFTs, CFAR, peak interpolation, angle estimation.
+//!   impairments, windowed range / Doppler FFTs, the range-Doppler map.
+//! * [`processing`]: processing parameters and thresholds; CFAR, peak interpolation, velocity
+//!   disambiguation and angle estimation (further `impl` blocks of the baseband's chain).
+//! * `export`: the step's outputs (OSI SensorData, the PerceptionData radar block).
 
 pub mod antenna;
 pub mod baseband;
 pub mod bench;
+mod export;
 pub mod processing;
 pub mod propagation;
 pub mod waveform;
 
 use crate::constants::SPEED_OF_LIGHT_M_S;
 use num_complex::Complex64;
-use osiris_proto::{id, interface_version, osi3, perception};
-use prost::Message as _;
+use osiris_proto::osi3;
 use serde::{Deserialize, Serialize};
 
 use crate::effects::{EffectInfo, Effects};
-use crate::frames::Spherical;
 use crate::recognition::radar::RadarRecognition;
 use crate::recognition::{EgoState, RadarDetection};
 use crate::sensor::{
@@ -234,12 +235,6 @@ fn rcs_estimate_dbsm(radar: &RadarConfig, antennas: &Antennas, d: &ChainDetectio
         + fe.system_losses_db
 }
 
-/// Existence probability of a detection from its SNR: a logistic ramp, 0.5 at 13 dB (the
-/// CA-CFAR threshold at P_FA 1e-6, physics.md §1.7), 0.95 at 20 dB (guessed shape).
-fn existence_from_snr(snr_db: f64) -> f64 {
-    1.0 / (1.0 + (-(snr_db - 13.0) * 0.42).exp())
-}
-
 impl SensorModel for RadarSensor {
     fn kind(&self) -> SensorKind {
         SensorKind::Radar
@@ -266,26 +261,9 @@ impl SensorModel for RadarSensor {
     }
 
     fn step(&mut self, input: &StepInput<'_>, out: &mut StepOutput) -> Result<(), ModelError> {
-        let mut dets = out
-            .sensor_data
-            .feature_data
-            .as_mut()
-            .and_then(|fd| fd.radar_sensor.first_mut())
-            .map(|x| std::mem::take(&mut x.detection))
-            .unwrap_or_default();
-        let mut peaks = out
-            .perception
-            .radar
-            .as_mut()
-            .map(|r| std::mem::take(&mut r.peak))
-            .unwrap_or_default();
-        let mut moving = std::mem::take(&mut out.sensor_data.moving_object);
-        out.sensor_data.clear();
-        out.perception.clear();
-        dets.clear();
-        peaks.clear();
-        moving.clear();
+        let mut bufs = export::Buffers::take(out);
 
+        // Plan: the world of this step.
         let cycle = self.cycle;
         self.cycle += 1;
         let frame = self.world.update(
@@ -294,6 +272,7 @@ impl SensorModel for RadarSensor {
             input.time_s,
             self.handshake.sensor_id(),
         )?;
+        // Perceive: propagation paths → baseband chain → detections.
         self.propagator.compute(
             &frame,
             (
@@ -309,111 +288,43 @@ impl SensorModel for RadarSensor {
         self.chain
             .set_field_of_view(cfg.fov_horizontal_rad, cfg.fov_vertical_rad);
         self.chain.run(&self.paths, seed, &mut self.chain_out);
+        export::detections(
+            &self.radar,
+            &self.antennas,
+            &self.chain_out,
+            &mut bufs,
+            &mut self.detections,
+        );
 
-        self.detections.clear();
-        for d in &self.chain_out {
-            let rcs = rcs_estimate_dbsm(&self.radar, &self.antennas, d);
-            let oid = (d.object_id != osiris_proto::INVALID_ID).then(|| id(d.object_id));
-            let sph = Spherical {
-                distance: d.range_m,
-                azimuth: d.azimuth_rad,
-                elevation: d.elevation_rad,
-            };
-            dets.push(osi3::RadarDetection {
-                existence_probability: Some(existence_from_snr(d.snr_db)),
-                // The detected object it belongs to, set after recognition (OSI 3.8.0 semantics,
-                // `crate::semantics`); the ground truth stays in the perception peak.
-                object_id: None,
-                position: Some(sph.to_osi()),
-                // OSI: radial velocity positive towards the sensor (see ideal.rs).
-                radial_velocity: Some(-d.range_rate_m_s),
-                rcs: Some(rcs),
-                snr: Some(d.snr_db),
-                ..Default::default()
-            });
-            peaks.push(perception::RadarPeak {
-                range_m: Some(d.range_m),
-                range_rate_m_s: Some(d.range_rate_m_s),
-                azimuth_rad: Some(d.azimuth_rad),
-                elevation_rad: Some(d.elevation_rad),
-                power_dbm: Some(d.power_dbm),
-                snr_db: Some(d.snr_db),
-                rcs_dbsm: Some(rcs),
-                object_id: oid,
-            });
-            self.detections.push(RadarDetection {
-                range_m: d.range_m,
-                azimuth_rad: d.azimuth_rad,
-                elevation_rad: d.elevation_rad,
-                range_rate_m_s: d.range_rate_m_s,
-                snr_db: d.snr_db,
-                rcs_dbsm: rcs,
-                object_id: d.object_id,
-            });
-        }
+        // Recognise: detections → moving objects.
         let ego = EgoState {
             time_s: frame.time_s,
             sensor_pose: frame.sensor_pose,
             sensor_velocity_m_s: frame.sensor_velocity_m_s,
             sensor_angular_velocity_rad_s: frame.sensor_angular_velocity_rad_s,
         };
-        self.recognition.step(&ego, &self.detections, &mut moving);
-        for (d, o) in dets.iter_mut().zip(self.recognition.detection_objects()) {
-            d.object_id = o.map(id);
-        }
+        self.recognition
+            .step(&ego, &self.detections, &mut bufs.moving);
+        export::detected_objects(&mut bufs.detections, self.recognition.detection_objects());
 
-        let sd = &mut out.sensor_data;
-        frame.fill_sensor_data_header(sd, cycle);
-        let header = frame.detection_header(cycle, dets.len());
-        sd.feature_data = Some(osi3::FeatureData {
-            version: Some(interface_version()),
-            radar_sensor: vec![osi3::RadarDetectionData {
-                header: Some(header),
-                detection: dets,
-            }],
-            ..Default::default()
-        });
-        sd.moving_object = moving;
-        if let Some(gt) = input.view.global_ground_truth.as_ref() {
-            let reported = self.recognition.reported_ground_truth();
-            crate::semantics::complete(
-                sd,
-                gt,
-                &crate::semantics::PoseFrames::new(&frame.frame, &frame.mounting),
-                &|t| reported.iter().find(|r| r.0 == t).and_then(|r| r.1),
-            );
-        }
-        let w = &self.radar.waveform;
-        let rd_map = self.radar.emit_range_doppler_map.then(|| {
-            let m = self.chain.range_doppler_map();
-            perception::RangeDopplerMap {
-                range_bins: Some(m.range_bins as u32),
-                doppler_bins: Some(m.doppler_bins as u32),
-                range_bin_m: Some(m.range_bin_m),
-                range_rate_bin_m_s: Some(m.doppler_bin_m_s),
-                power_dbm: m.power_dbm,
-            }
-        });
-        let p = &mut out.perception;
-        p.osi_version = Some(interface_version());
-        p.extension_version = Some(osiris_proto::PERCEPTION_EXTENSION_VERSION.to_string());
-        p.timestamp = Some(frame.timestamp);
-        p.sensor_id = frame.sensor_id;
-        p.mounting_position = Some(frame.mounting);
-        p.model_mode = Some(ModelMode::Physical.name().to_string());
-        p.cycle_counter = Some(cycle);
-        p.radar = Some(perception::RadarPerception {
-            peak: peaks,
-            waveform: Some(perception::RadarWaveform {
-                carrier_frequency_hz: Some(w.carrier_frequency_hz),
-                bandwidth_hz: Some(w.sampled_bandwidth_hz()),
-                chirp_duration_s: Some(w.chirp_interval_s()),
-                samples_per_chirp: Some(w.samples_per_chirp as u32),
-                chirps_per_frame: Some(w.chirps_per_frame as u32),
-                virtual_channels: Some(self.radar.array.n_virtual() as u32),
-            }),
-            range_doppler_map: rd_map,
-        });
+        // Export: SensorData and PerceptionData.
+        export::sensor_data(
+            &mut out.sensor_data,
+            &frame,
+            cycle,
+            bufs.detections,
+            bufs.moving,
+            input.view.global_ground_truth.as_ref(),
+            self.recognition.reported_ground_truth(),
+        );
+        export::perception(
+            &mut out.perception,
+            &frame,
+            cycle,
+            bufs.peaks,
+            &self.radar,
+            &self.chain,
+        );
         Ok(())
     }
 

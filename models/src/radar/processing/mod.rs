@@ -2,6 +2,11 @@
 //! windows, CFAR thresholds (CA / OS / GO / SO) for square-law detection with non-coherent
 //! integration over the virtual channels, peak interpolation.
 //!
+//! The detection side of [`RadarChain`](super::baseband::RadarChain) that runs on the
+//! range-Doppler map lives in the submodules, as further `impl RadarChain` blocks: `cfar.rs` (the
+//! 2-D CFAR that uses these thresholds) and `angle.rs` (per hit: interpolation, TDM velocity
+//! disambiguation, angle estimation, angle gate, power and object id).
+//!
 //! CFAR (Richards, *Fundamentals of Radar Signal Processing* 2nd ed. §6.5; physics.md §1.7): the
 //! cell under test `X` is compared with `T = α ẑ`, `ẑ` an estimate of the noise level from the
 //! reference cells around it (guard cells excluded). The range-Doppler power map sums `|X_k|²`
@@ -18,6 +23,10 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::ModelError;
+
+// The detection side of `RadarChain` (second `impl` blocks; the waveform side is in `baseband.rs`).
+mod angle;
+mod cfar;
 
 /// Upper bound of `ProcessingConfig::max_angle_peaks_per_cell`.
 pub const MAX_ANGLE_PEAKS: usize = 8;
