@@ -53,6 +53,107 @@ fn round3(x: f64) -> Json {
     json!((x * 1e3).round() / 1e3)
 }
 
+/// Cars in the street SensorView of [`bench_radar_street`]: three lanes ahead of the radar.
+pub const STREET_CARS: u64 = 40;
+
+/// The physical radar's whole step (ray-traced propagation over a street of [`STREET_CARS`] cars in
+/// three lanes, 8–86 m ahead, all at 10 m/s; then the baseband chain and the recognition), through
+/// [`osiris_models::build_sensor`] as the FMU runs it: median of `frames` steps after one warm-up
+/// step, on a rayon pool of `threads` threads. Keys `street_cars`, `street_step_ms` (median),
+/// `street_step_p95_ms`, `street_detections` (of the last step). Merged into `osiris bench radar`.
+pub fn bench_radar_street(threads: usize, frames: usize) -> Result<Json> {
+    use osiris_models::{ModelMode, SensorConfig, StepInput, StepOutput, build_sensor};
+    use osiris_proto::{id, osi3, timestamp_from_seconds};
+    let v3 = |x: f64, y: f64, z: f64| osi3::Vector3d {
+        x: Some(x),
+        y: Some(y),
+        z: Some(z),
+    };
+    let zero = || osi3::Orientation3d {
+        roll: Some(0.0),
+        pitch: Some(0.0),
+        yaw: Some(0.0),
+    };
+    let cars = (0..STREET_CARS)
+        .map(|i| {
+            let lane = (i % 3) as f64 - 1.0;
+            osi3::MovingObject {
+                id: Some(id(100 + i)),
+                base: Some(osi3::BaseMoving {
+                    dimension: Some(osi3::Dimension3d {
+                        length: Some(4.5),
+                        width: Some(1.8),
+                        height: Some(1.5),
+                    }),
+                    position: Some(v3(
+                        8.0 + 6.0 * (i / 3) as f64 + 2.0 * lane,
+                        3.5 * lane,
+                        0.75,
+                    )),
+                    orientation: Some(zero()),
+                    velocity: Some(v3(10.0, 0.0, 0.0)),
+                    orientation_rate: Some(zero()),
+                    ..Default::default()
+                }),
+                r#type: Some(osi3::moving_object::Type::Vehicle as i32),
+                model_reference: Some("osiris:car".into()),
+                ..Default::default()
+            }
+        })
+        .collect();
+    let view = osi3::SensorView {
+        version: Some(osiris_proto::interface_version()),
+        timestamp: Some(timestamp_from_seconds(0.0)),
+        global_ground_truth: Some(osi3::GroundTruth {
+            timestamp: Some(timestamp_from_seconds(0.0)),
+            moving_object: cars,
+            ..Default::default()
+        }),
+        ..Default::default()
+    };
+    let mut config = SensorConfig::default_for(SensorKind::Radar);
+    config.mode = ModelMode::Physical;
+    config.mounting.position_m = [0.0, 0.0, 0.5];
+    config.seed = Some(1);
+    let mut radar = build_sensor(config).context("the default physical radar")?;
+    let request = radar.view_configuration_request();
+    radar
+        .apply_view_configuration(&request)
+        .context("the radar's own view configuration")?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+        .context("a rayon pool")?;
+    let frames = frames.max(1);
+    let mut out = StepOutput::default();
+    let (mut step_ms, mut detections) = (Vec::with_capacity(frames), 0usize);
+    pool.install(|| -> Result<()> {
+        for f in 0..=frames {
+            let input = StepInput {
+                view: &view,
+                time_s: 0.05 * f as f64,
+                step_s: 0.05,
+            };
+            let t = Instant::now();
+            radar.step(&input, &mut out).context("radar step")?;
+            if f > 0 {
+                step_ms.push(t.elapsed().as_secs_f64() * 1e3);
+                detections = out.sensor_data.feature_data.as_ref().map_or(0, |fd| {
+                    fd.radar_sensor.iter().map(|r| r.detection.len()).sum()
+                });
+            }
+        }
+        Ok(())
+    })?;
+    let step = Stats::of(&mut step_ms);
+    Ok(json!({
+        "street_cars": STREET_CARS,
+        "street_step_ms": round3(step.median_ms),
+        "street_step_p95_ms": round3(step.p95_ms),
+        "street_detections": detections,
+    }))
+}
+
 /// `osiris bench fmu`.
 pub fn bench_fmu(fmu_dir: &Path, iterations: usize) -> Result<Json> {
     let iterations = iterations.max(1);

@@ -102,7 +102,7 @@ pub enum BenchWhat {
     /// 1 and 7 sub-rays per pulse.
     Lidar,
     /// Physical radar: the full chain (2,000 paths → IF cube 256 × 128 × 12 → FFTs → CFAR → angles),
-    /// frames/s.
+    /// frames/s; and the whole sensor step (propagation, chain, recognition) on a 40-car street.
     Radar,
     /// Physical camera: 1280 × 960 frames (ISX019-class) of the reference street with sun, sky,
     /// shadows and 3-exposure HDR, frames/s and the cost split (render, lens, pixel, ISP,
@@ -363,10 +363,16 @@ pub fn main_with(cli: Cli) -> Result<()> {
                     max_threads,
                     frames.unwrap_or(10).max(1),
                 ),
-                BenchWhat::Radar => osiris_models::radar::bench::bench_radar(
-                    max_threads,
-                    frames.unwrap_or(40).max(1),
-                ),
+                BenchWhat::Radar => {
+                    let frames = frames.unwrap_or(40).max(1);
+                    let mut figures = osiris_models::radar::bench::bench_radar(max_threads, frames);
+                    let street =
+                        crate::bench::bench_radar_street(max_threads.unwrap_or(2), frames.min(10))?;
+                    if let (Some(f), Some(s)) = (figures.as_object_mut(), street.as_object()) {
+                        f.extend(s.clone());
+                    }
+                    figures
+                }
                 BenchWhat::Camera => osiris_models::camera::bench::bench_camera(
                     max_threads,
                     frames.unwrap_or(5).max(1),

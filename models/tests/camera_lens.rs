@@ -710,36 +710,3 @@ fn bad_configs_name_the_key() {
     assert_eq!(c.transmittance, LensConfig::default().transmittance);
     c.validate().unwrap();
 }
-
-/// Cost of planning and applying the lens for a 1280 × 960 (ISX019-class) frame with every effect
-/// on; prints the times (no timed assertion). `cargo test -p osiris-models --test camera_lens --
-/// --ignored --nocapture`.
-#[test]
-#[ignore = "timing printout"]
-fn lens_timing_full_frame() {
-    let (w, h) = (1280, 960);
-    let t = std::time::Instant::now();
-    let lens = Lens::new(
-        &LensConfig::default(),
-        w,
-        h,
-        2.9e-6,
-        60f64.to_radians(),
-        &effects(&[]),
-    )
-    .unwrap();
-    let plan_s = t.elapsed().as_secs_f64();
-    let mut img = uniform_image(w, h, 1e18);
-    let s = sun_at(700.0, 400.0, &lens);
-    let t = std::time::Instant::now();
-    for _ in 0..10 {
-        lens.apply(&mut img, &mut Flicker::default(), Some(&s));
-    }
-    let apply_s = t.elapsed().as_secs_f64() / 10.0;
-    eprintln!(
-        "lens 1280×960: plan {:.1} ms, apply (PSF σ = {:.2} px + flare) {:.1} ms",
-        plan_s * 1e3,
-        lens.psf_sigma_px(),
-        apply_s * 1e3
-    );
-}

@@ -14,7 +14,7 @@ use common::{dim, rpy, sun, v3};
 use std::f64::consts::PI;
 
 use glam::{DVec3, Vec3};
-use osiris_models::camera::bench::{CameraBenchScene, bench_camera, bench_camera_on};
+use osiris_models::camera::bench::{CameraBenchScene, bench_camera_on};
 use osiris_models::camera::light::HostLamps;
 use osiris_models::camera::render::{
     RenderConfig, RenderInput, RenderOutput, Renderer, sun_solid_angle_sr,
@@ -818,12 +818,4 @@ fn bench_small_reports_the_keys() {
     }
     assert_eq!(v["width"], 160);
     assert!(v["frames_per_s"].as_f64().unwrap() > 0.0);
-}
-
-/// `cargo test --release -p osiris-models --test camera_render -- --ignored --nocapture`
-#[test]
-#[ignore]
-fn bench_camera_full() {
-    let v = bench_camera(Some(2), 3);
-    println!("{}", serde_json::to_string_pretty(&v).unwrap());
 }

@@ -777,62 +777,6 @@ fn moving_reflector_velocity_and_rcs_end_to_end() {
         "rcs {rcs:.2} dBsm vs {expected:.2}"
     );
 }
-
-/// Timing of the propagation on a street (not asserted; run with
-/// `cargo test --release -p osiris-models --test radar -- --ignored --nocapture`).
-#[test]
-#[ignore]
-fn propagation_timing_street() {
-    let mut objects = Vec::new();
-    for i in 0..40u64 {
-        let lane = (i % 3) as f64 - 1.0;
-        let x = 8.0 + 6.0 * (i / 3) as f64 + 2.0 * lane;
-        let mut car = target(
-            "osiris:car",
-            [x, 3.5 * lane, 0.75],
-            0.0,
-            [4.5, 1.8, 1.5],
-            [10.0, 0.0, 0.0],
-        );
-        car.id = Some(id(100 + i));
-        objects.push(car);
-    }
-    let mut s = RadarSensor::new(config(0.5, &[])).unwrap();
-    let v = view(objects);
-    let input = StepInput {
-        view: &v,
-        time_s: 0.0,
-        step_s: 0.05,
-    };
-    s.propagate(&input).unwrap();
-    let n = 10;
-    let t0 = std::time::Instant::now();
-    let mut paths = 0;
-    for _ in 0..n {
-        paths = s.propagate(&input).unwrap().len();
-    }
-    let dt = t0.elapsed().as_secs_f64() / f64::from(n);
-    let mut out = StepOutput::default();
-    s.step(&input, &mut out).unwrap();
-    let t1 = std::time::Instant::now();
-    for _ in 0..n {
-        s.step(&input, &mut out).unwrap();
-    }
-    let dt_step = t1.elapsed().as_secs_f64() / f64::from(n);
-    eprintln!(
-        "street, 40 cars: full step (paths + baseband + recognition) {:.1} ms, {} detections",
-        dt_step * 1e3,
-        s.last_chain_detections().len()
-    );
-    eprintln!(
-        "street, 40 cars: {:.1} ms per frame, {} tubes, {} paths, {} threads",
-        dt * 1e3,
-        s.last_tube_count(),
-        paths,
-        rayon::current_num_threads()
-    );
-}
-
 /// End-to-end: three trihedrals (edge 0.1 m) at 20 m range, −6 / 0 / +6 m lateral offset, facing
 /// the sensor, sensor and reflectors at the same height: one range-Doppler cell, three targets
 /// 0.30 apart in sin(azimuth) (the 8-element horizontal aperture resolves 2/8 = 0.25). Three

@@ -484,21 +484,6 @@ fn bad_configuration_names_the_key() {
     assert!(serde_json::to_string(&p).unwrap().contains("blackman"));
 }
 
-/// `cargo test --release -p osiris-models --test radar_baseband -- --ignored --nocapture bench`
-#[test]
-#[ignore = "timing; run in release"]
-fn bench_print() {
-    let threads = std::env::var("RADAR_BENCH_THREADS")
-        .ok()
-        .and_then(|s| s.parse().ok());
-    let frames = std::env::var("RADAR_BENCH_FRAMES")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(10);
-    let v = osiris_models::radar::bench::bench_radar(threads.or(Some(2)), frames);
-    println!("{v}");
-}
-
 /// Detections within `dr` m in range and `dv` m/s of (r, v).
 fn near(d: &[ChainDetection], r: f64, v: f64, dr: f64, dv: f64) -> Vec<ChainDetection> {
     d.iter()
