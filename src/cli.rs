@@ -371,7 +371,7 @@ pub fn main_with(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Effects { json } => {
-            let all = osiris_models::effects::catalogue();
+            let all = osiris_models::registry::catalogue();
             if json {
                 let rows: Vec<_> = all
                     .iter()

@@ -506,7 +506,7 @@ fn bad_inputs_give_clear_errors() {
 fn readme_lists_every_named_effect() {
     let readme =
         std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md")).unwrap();
-    for e in osiris_models::effects::catalogue() {
+    for e in osiris_models::registry::catalogue() {
         assert!(
             readme.contains(&format!("`{}`", e.name)),
             "README.md does not document `{}`",
@@ -526,7 +526,7 @@ fn readme_lists_every_named_effect() {
     );
     let listed: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
     let names: BTreeSet<&str> = listed.iter().filter_map(|e| e["name"].as_str()).collect();
-    for e in osiris_models::effects::catalogue() {
+    for e in osiris_models::registry::catalogue() {
         assert!(
             names.contains(e.name),
             "`osiris effects --json` lacks {}",
