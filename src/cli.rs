@@ -405,7 +405,7 @@ pub fn main_with(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Effects { json, markdown } => {
-            let all = osiris_models::effects::catalogue();
+            let all = osiris_models::registry::catalogue();
             if markdown {
                 out!("{}", effects_markdown(&all));
             } else if json {

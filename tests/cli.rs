@@ -507,7 +507,7 @@ fn effects_page_lists_every_named_effect() {
     let page =
         std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/effects.md"))
             .unwrap();
-    for e in osiris_models::effects::catalogue() {
+    for e in osiris_models::registry::catalogue() {
         assert!(
             page.contains(&format!("| `{}` |", e.name)),
             "docs/effects.md does not document `{}`",
@@ -527,7 +527,7 @@ fn effects_page_lists_every_named_effect() {
     );
     let listed: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
     let names: BTreeSet<&str> = listed.iter().filter_map(|e| e["name"].as_str()).collect();
-    for e in osiris_models::effects::catalogue() {
+    for e in osiris_models::registry::catalogue() {
         assert!(
             names.contains(e.name),
             "`osiris effects --json` lacks {}",

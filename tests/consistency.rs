@@ -393,7 +393,7 @@ fn itu_77ghz_db_per_km(rain_mm_h: f64) -> f64 {
 fn stand_in(
     model_trace: &Path,
 ) -> impl FnMut(
-    &osiris_models::sensor::SensorConfig,
+    &osiris_models::SensorConfig,
     &[osiris_proto::osi3::SensorView],
 ) -> Result<
     Vec<osiris_proto::osi3::SensorData>,

@@ -483,7 +483,7 @@ fn camera_catalogue_parses_with_known_switches_and_exact_signatures() {
     use osiris::consistency::campaign::CampaignSensor;
     use osiris::consistency::catalogue::Catalogue;
     let c = Catalogue::builtin(CampaignSensor::Camera).unwrap();
-    let known: Vec<&str> = osiris_models::effects::catalogue()
+    let known: Vec<&str> = osiris_models::registry::catalogue()
         .iter()
         .map(|e| e.name)
         .collect();

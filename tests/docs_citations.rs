@@ -226,6 +226,21 @@ fn heading_is(h: &str, id: &str) -> bool {
     }
 }
 
+/// `a/b/../c` → `a/c`, `./` dropped (a path relative to the repository root).
+fn normalise(path: &str) -> String {
+    let mut parts: Vec<&str> = Vec::new();
+    for p in path.split('/') {
+        match p {
+            "" | "." => {}
+            ".." => {
+                parts.pop();
+            }
+            p => parts.push(p),
+        }
+    }
+    parts.join("/")
+}
+
 /// The problems of the citations of one file (`source` is the path shown in the messages);
 /// `docs` is the repository's `docs/` directory.
 fn unresolved(source: &str, text: &str, docs: &Path) -> (usize, Vec<String>) {
@@ -236,7 +251,15 @@ fn unresolved(source: &str, text: &str, docs: &Path) -> (usize, Vec<String>) {
         let at = format!("{source}:{}", c.line);
         if NOTES.contains(&name) {
             let dir = &c.document[..c.document.len() - name.len()];
-            if !(dir.is_empty() || dir == "docs/" || dir.ends_with("/docs/")) {
+            // A relative Markdown link (one folder up from a page in a docs subfolder) resolves
+            // against the citing file's folder.
+            let relative_to_docs = (dir.starts_with("../") || dir.starts_with("./"))
+                && normalise(&format!(
+                    "{}/{}",
+                    source.rsplit_once('/').map_or("", |(d, _)| d),
+                    c.document
+                )) == format!("docs/{name}");
+            if !(dir.is_empty() || dir == "docs/" || dir.ends_with("/docs/") || relative_to_docs) {
                 problems.push(format!(
                     "{at}: `{}` is not in the repository; cite docs/{name}",
                     c.document
@@ -316,6 +339,12 @@ fn the_checker_reports_what_does_not_resolve() {
     assert_eq!(unresolved("m.md", &missing, &docs).1.len(), 1);
     let outside = format!("`shared/reference/{}` {s}5\n", NOTES[0]);
     assert_eq!(unresolved("o.rs", &outside, &docs).1.len(), 1);
+    // A relative link resolves against the citing file's folder: docs/models/ → docs/, but the
+    // same link from src/ points outside docs/.
+    let relative = format!("[v](../{})\n", NOTES[1]);
+    let page = format!("docs/models/m.{}", "md");
+    assert!(unresolved(&page, &relative, &docs).1.is_empty());
+    assert_eq!(unresolved("src/m.rs", &relative, &docs).1.len(), 1);
     // `§1` must not resolve to a `1.1` heading, nor `§9` to `9c`.
     assert!(heading_is("1. Radar", "1") && !heading_is("1.1 Range", "1"));
     assert!(heading_is("9c Rain", "9c") && !heading_is("9c Rain", "9"));

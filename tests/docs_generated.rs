@@ -57,7 +57,7 @@ fn effects_page_is_what_osiris_effects_prints() {
 fn effects_markdown_has_one_row_per_effect_with_its_default() {
     let md = osiris(&["effects", "--markdown"]);
     let rows: Vec<&str> = md.lines().filter(|l| l.starts_with("| `")).collect();
-    let all = osiris_models::effects::catalogue();
+    let all = osiris_models::registry::catalogue();
     assert_eq!(rows.len(), all.len(), "one table row per effect");
     for (row, e) in rows.iter().zip(&all) {
         let state = if e.default_on { "on" } else { "off" };

@@ -71,7 +71,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, anyhow, bail};
 use osiris_models::camera::Cfa;
-use osiris_models::sensor::{SensorConfig, SensorModel, StepInput, StepOutput, build_sensor};
+use osiris_models::{SensorConfig, SensorModel, StepInput, StepOutput, build_sensor};
 use osiris_proto::osi3;
 
 use super::campaign::{Campaign, TVal, parse_toml};

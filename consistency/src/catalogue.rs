@@ -73,7 +73,7 @@ impl EffectKind {
 
 /// Whether `id` is an osiris model effect (`osiris effects`).
 pub fn is_model_effect(id: &str) -> bool {
-    osiris_models::effects::catalogue()
+    osiris_models::registry::catalogue()
         .iter()
         .any(|e| e.name == id)
 }
@@ -580,7 +580,7 @@ mod tests {
     fn catalogue_ids_are_the_model_effect_names() {
         // The two lists held together: a catalogue id names a model effect exactly when it says
         // kind = "model"; anything else is marked as missing physics or a measurement property.
-        let known: Vec<&str> = osiris_models::effects::catalogue()
+        let known: Vec<&str> = osiris_models::registry::catalogue()
             .iter()
             .map(|e| e.name)
             .collect();

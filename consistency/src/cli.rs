@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
-use osiris_models::sensor::SensorConfig;
+use osiris_models::SensorConfig;
 use osiris_proto::osi3;
 
 use super::attribution::{self, Status};
@@ -85,7 +85,7 @@ pub fn run(args: ConsistencyArgs) -> Result<()> {
 }
 
 pub(crate) fn switches(args: &ConsistencyArgs) -> Result<osiris_models::effects::EffectSwitches> {
-    let known = osiris_models::effects::catalogue();
+    let known = osiris_models::registry::catalogue();
     let mut sw = BTreeMap::new();
     for (list, on) in [(&args.enable, true), (&args.disable, false)] {
         for name in list {

@@ -7,7 +7,7 @@ use std::path::Path;
 use anyhow::{Context, Result, anyhow};
 use osiris_models::effects::EffectSwitches;
 use osiris_models::environment::weather::Weather;
-use osiris_models::sensor::{
+use osiris_models::{
     ModelMode, Mounting, SensorConfig, SensorKind, StepInput, StepOutput, build_sensor,
 };
 use osiris_proto::osi3;

@@ -20,7 +20,9 @@
 use std::ffi::CString;
 use std::path::{Path, PathBuf};
 
-use osiris_models::{ModelError, ModelMode, SensorConfig, SensorModel, StepInput, StepOutput};
+use osiris_models::{
+    CommonConfig, ModelError, ModelMode, SensorConfig, SensorModel, StepInput, StepOutput,
+};
 use osiris_proto::{Message, osi3};
 
 use crate::descriptor::{FmuDescriptor, SensorRole};
@@ -1193,7 +1195,7 @@ impl Instance {
 
 /// Fill what the model left unset in its SensorViewConfiguration request from its configuration:
 /// version, mounting position, field of view, range, update cycle.
-fn fill_request_defaults(request: &mut osi3::SensorViewConfiguration, config: &SensorConfig) {
+fn fill_request_defaults(request: &mut osi3::SensorViewConfiguration, config: &CommonConfig) {
     request
         .version
         .get_or_insert_with(osiris_proto::interface_version);

@@ -12,7 +12,8 @@ use osiris_fmu::ffi::*;
 use osiris_fmu::variables::vr;
 use osiris_fmu::{FmuDescriptor, sensors};
 use osiris_models::{
-    ModelError, ModelMode, SensorConfig, SensorKind, SensorModel, StepInput, StepOutput,
+    CommonConfig, ModelError, ModelMode, SensorConfig, SensorKind, SensorModel, StepInput,
+    StepOutput,
 };
 use osiris_proto::{Message, osi3};
 
@@ -996,7 +997,7 @@ enum Behaviour {
 }
 
 struct TestModel {
-    config: SensorConfig,
+    config: CommonConfig,
     behaviour: Behaviour,
 }
 
@@ -1007,7 +1008,7 @@ impl SensorModel for TestModel {
     fn mode(&self) -> ModelMode {
         ModelMode::Ideal
     }
-    fn config(&self) -> &SensorConfig {
+    fn config(&self) -> &CommonConfig {
         &self.config
     }
     fn view_configuration_request(&self) -> osi3::SensorViewConfiguration {
@@ -1064,7 +1065,7 @@ macro_rules! test_descriptor {
                 panic!("test model panics while building");
             }
             Ok(Box::new(TestModel {
-                config,
+                config: config.common(),
                 behaviour: $behaviour,
             }))
         }

@@ -5,6 +5,10 @@
 //! attribute a model/measurement discrepancy to a missing effect and show the error fall when it is
 //! enabled. Each module declares its effects as [`EffectInfo`] constants (name, default, formula and
 //! source); an [`Effects`] set holds the switches of one model instance.
+//!
+//! This module is the mechanism only and names no model: each module lists its own effects
+//! (`environment::effects()`, `space::EFFECTS`, `lidar::effects()`, ...) and the registry
+//! (`crate::registry::catalogue`) concatenates them.
 
 use std::collections::BTreeMap;
 
@@ -119,22 +123,6 @@ impl Effects {
     }
 }
 
-/// Every physical effect osiris declares, sorted by name: the catalogue `osiris effects` prints and
-/// the README lists (a test keeps them in step).
-pub fn catalogue() -> Vec<EffectInfo> {
-    let mut all: Vec<EffectInfo> = [
-        crate::environment::material::EFFECTS,
-        crate::environment::weather::EFFECTS,
-        crate::space::EFFECTS,
-        &crate::lidar::effects(),
-        &crate::radar::effects(),
-        &crate::camera::effects(),
-    ]
-    .concat();
-    all.sort_by_key(|e| e.name);
-    all
-}
-
 /// Serde helper so configs can carry `"effects": {"env.fog_extinction": false}`.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(transparent)]
@@ -158,49 +146,6 @@ mod tests {
         source: "s",
         requires: None,
     };
-
-    #[test]
-    fn required_effects_exist_and_gate_their_children() {
-        let all = catalogue();
-        let names: Vec<&str> = all.iter().map(|e| e.name).collect();
-        for e in &all {
-            if let Some(p) = e.requires {
-                assert!(names.contains(&p), "{} requires undeclared {p}", e.name);
-                assert_ne!(p, e.name);
-            }
-        }
-        let fog = all
-            .iter()
-            .find(|e| e.name == "lidar.fog_extinction")
-            .unwrap();
-        assert_eq!(fog.requires, Some("env.fog_extinction"));
-        let mut fx = Effects::new(&all);
-        assert!(fx.is_on(fog));
-        fx.set("env.fog_extinction", false).unwrap();
-        assert!(!fx.is_on(fog), "the parent switch turns the child off");
-        assert!(fx.switch(fog), "the child's own switch is untouched");
-        fx.set("env.fog_extinction", true).unwrap();
-        fx.set("lidar.fog_extinction", false).unwrap();
-        assert!(!fx.is_on(fog));
-    }
-
-    #[test]
-    fn catalogue_names_are_unique_and_documented() {
-        let all = catalogue();
-        assert!(all.len() >= 10);
-        for w in all.windows(2) {
-            assert_ne!(w[0].name, w[1].name, "effect declared twice");
-        }
-        for e in &all {
-            let (layer, effect) = e.name.split_once('.').expect("`<layer>.<effect>`");
-            assert!(!layer.is_empty() && !effect.is_empty(), "{}", e.name);
-            assert!(
-                !e.summary.is_empty() && !e.source.is_empty(),
-                "{} lacks its formula or source",
-                e.name
-            );
-        }
-    }
 
     #[test]
     fn defaults_switches_and_unknown_names() {

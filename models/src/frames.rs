@@ -45,6 +45,7 @@
 
 use glam::{DMat3, DVec3};
 use osiris_proto::osi3;
+use serde::{Deserialize, Serialize};
 
 /// An OSI `Vector3d` as a `DVec3` (absent vector or components count as 0).
 pub fn vec3_from_osi(v: Option<&osi3::Vector3d>) -> DVec3 {
@@ -406,6 +407,33 @@ impl Spherical {
     }
 }
 
+/// A mounting pose: the sensor frame relative to the host vehicle frame (rear-axle centre, ISO 8855),
+/// as OSI `MountingPosition` (position m, orientation rad: roll, pitch, yaw).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Mounting {
+    pub position_m: [f64; 3],
+    #[serde(default)]
+    pub orientation_rad: [f64; 3],
+}
+
+impl Mounting {
+    pub fn to_osi(&self) -> osi3::MountingPosition {
+        osi3::MountingPosition {
+            position: Some(osi3::Vector3d {
+                x: Some(self.position_m[0]),
+                y: Some(self.position_m[1]),
+                z: Some(self.position_m[2]),
+            }),
+            orientation: Some(osi3::Orientation3d {
+                roll: Some(self.orientation_rad[0]),
+                pitch: Some(self.orientation_rad[1]),
+                yaw: Some(self.orientation_rad[2]),
+            }),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -445,7 +473,7 @@ mod tests {
     }
 
     fn mounting(pos: [f64; 3], rpy: [f64; 3]) -> osi3::MountingPosition {
-        crate::sensor::Mounting {
+        super::Mounting {
             position_m: pos,
             orientation_rad: rpy,
         }

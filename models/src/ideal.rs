@@ -476,7 +476,7 @@ struct Track {
 
 /// The ideal object-level sensor model (see the module documentation).
 pub struct IdealSensor {
-    config: SensorConfig,
+    config: CommonConfig,
     /// Sensor id learned from the granted view configuration (used when a SensorView carries none).
     sensor_id: Option<u64>,
     cycle: u64,
@@ -486,9 +486,11 @@ pub struct IdealSensor {
 }
 
 impl IdealSensor {
-    pub fn new(config: SensorConfig) -> Self {
+    /// The ideal model of a configuration (a [`CommonConfig`], or anything that converts into one,
+    /// such as the JSON sensor configuration).
+    pub fn new(config: impl Into<CommonConfig>) -> Self {
         IdealSensor {
-            config,
+            config: config.into(),
             sensor_id: None,
             cycle: 0,
             tracks: HashMap::new(),
@@ -800,7 +802,7 @@ impl SensorModel for IdealSensor {
         ModelMode::Ideal
     }
 
-    fn config(&self) -> &SensorConfig {
+    fn config(&self) -> &CommonConfig {
         &self.config
     }
 
@@ -1269,6 +1271,56 @@ impl SensorModel for IdealSensor {
     fn reset(&mut self) {
         self.cycle = 0;
         self.tracks.clear();
+    }
+}
+
+/// The OSMP view-configuration handshake shared by the physical models: the request is the ideal
+/// model's (field of view, range, update cycle, mounting, sensor-view type), the granted
+/// configuration may narrow it, and the granted sensor id is kept for the output.
+pub struct Handshake {
+    ideal: IdealSensor,
+    sensor_id: Option<u64>,
+}
+
+impl Handshake {
+    pub fn new(config: &CommonConfig) -> Handshake {
+        Handshake {
+            ideal: IdealSensor::new(config.clone()),
+            sensor_id: None,
+        }
+    }
+
+    /// The SensorViewConfiguration to ask the environment simulation for.
+    pub fn request(&self) -> osi3::SensorViewConfiguration {
+        self.ideal.view_configuration_request()
+    }
+
+    /// Accept a granted configuration: the notes to log, and whether the field of view or range
+    /// changed (the configuration in force is then [`Self::config`], and the model re-plans).
+    pub fn apply(
+        &mut self,
+        granted: &osi3::SensorViewConfiguration,
+    ) -> Result<(Vec<String>, bool), ModelError> {
+        let before = self.ideal.config().clone();
+        let notes = self.ideal.apply_view_configuration(granted)?;
+        if let Some(v) = granted.sensor_id.and_then(|i| i.value) {
+            self.sensor_id = Some(v);
+        }
+        let c = self.ideal.config();
+        let changed = c.fov_horizontal_rad != before.fov_horizontal_rad
+            || c.fov_vertical_rad != before.fov_vertical_rad
+            || c.range_m != before.range_m;
+        Ok((notes, changed))
+    }
+
+    /// The configuration in force after the handshake.
+    pub fn config(&self) -> &CommonConfig {
+        self.ideal.config()
+    }
+
+    /// The sensor id granted by the environment simulation.
+    pub fn sensor_id(&self) -> Option<u64> {
+        self.sensor_id
     }
 }
 

@@ -1,20 +1,41 @@
 //! osiris sensor models. Model code never sees FMI: the FMU shell (`fmu/`) drives a
 //! [`sensor::SensorModel`] and the co-simulation master (`src/master`) drives the FMUs.
 //!
-//! * [`sensor`]: the model trait, the sensor configuration (JSON) and [`sensor::build_sensor`].
-//! * [`frames`]: OSI frame transforms (global -> host vehicle -> sensor), ISO 8855 axes.
-//! * [`ideal`]: the ideal object-level reference model shared by all sensor kinds.
+//! * [`registry`]: the sensor configuration (JSON, [`SensorConfig`]), [`build_sensor`] and the
+//!   effect catalogue ([`registry::catalogue`]): everything that names every model.
+//! * [`sensor`]: the model trait and what every model is built from ([`CommonConfig`],
+//!   [`SensorSetup`]).
+//! * [`frames`]: OSI frame transforms (global -> host vehicle -> sensor), ISO 8855 axes, mounting.
+//! * [`ideal`]: the ideal object-level reference model shared by all sensor kinds (and the OSMP
+//!   view-configuration handshake of the physical models).
 //! * [`input`]: screening of a SensorView (non-finite, implausible, duplicate) before any model sees it.
-//! * [`effects`]: named, switchable physical effects.
+//! * [`effects`]: named, switchable physical effects (the mechanism; each module lists its own).
 //! * [`environment`]: scene geometry, materials, sun and sky, weather.
 //! * [`space`]: ray-traced propagation (space design).
 //! * [`world`]: the per-step world of a physical model (scene, space, sensor pose, weather).
-//! * [`lidar`], [`radar`]: the physical sensor models.
+//! * [`lidar`], [`radar`], [`camera`]: the physical sensor models.
 //! * [`recognition`]: detected objects from raw perception output, with tracking.
 //! * [`semantics`]: the OSI 3.8.0 detection semantics every model's output follows (detections →
 //!   detected objects, moving vs stationary, pedestrian poses, camera boxes).
-//! * [`error`], [`constants`], [`rng`]: leaves (the error type, physical constants, seed hashes).
+//! * [`error`], [`constants`], [`rng`], [`special`]: leaves (the error type, physical constants,
+//!   seed hashes, special functions).
 //! * [`cpu`]: run-time choice of the SIMD kernels (`OSIRIS_SIMD=portable` forces the portable ones).
+//!
+//! # Layers
+//!
+//! The modules import each other one way only, bottom to top (a module uses only modules of the
+//! layers below it; `tests/module_graph.rs` fails on a cycle):
+//!
+//! 1. `error`, `constants`, `rng`, `special`, `cpu`, `input`: leaves.
+//! 2. `effects`: the switch mechanism ([`effects::Effects`], [`effects::EffectInfo`]).
+//! 3. `frames` → 4. `environment` → 5. `sensor` (trait, [`CommonConfig`]) and `space` →
+//!    6. `world` (scene, space and pose of one step).
+//! 7. `semantics`, `recognition` (its camera input is its own: `recognition::camera::CameraLens`,
+//!    `PixelObjects`), `ideal` (uses `world`, `semantics`).
+//! 8. `lidar`, `radar`, `camera`: each lists its effects and is built from a
+//!    [`SensorSetup`] of its own parameters.
+//! 9. `registry`: [`SensorConfig`] (with every model's parameters), [`build_sensor`], the
+//!    effect catalogue.
 
 pub mod camera;
 pub mod constants;
@@ -28,6 +49,7 @@ pub mod input;
 pub mod lidar;
 pub mod radar;
 pub mod recognition;
+pub mod registry;
 pub mod rng;
 pub mod semantics;
 pub mod sensor;
@@ -36,6 +58,8 @@ pub mod special;
 pub mod world;
 
 pub use error::ModelError;
+pub use frames::Mounting;
+pub use registry::{SensorConfig, build_sensor};
 pub use sensor::{
-    ModelMode, SensorConfig, SensorKind, SensorModel, StepInput, StepOutput, build_sensor,
+    CommonConfig, ModelMode, SensorKind, SensorModel, SensorSetup, StepInput, StepOutput,
 };

@@ -33,7 +33,7 @@ use crate::environment::material::{MaterialDb, WET_SURFACES};
 use crate::environment::scene::{Scene, SceneBuilder, SceneOptions};
 use crate::environment::weather::{RoadWetness, WET_ROAD, Weather};
 use crate::frames::{Pose, SensorFrame};
-use crate::sensor::{ModelError, SensorConfig};
+use crate::sensor::{CommonConfig, ModelError};
 use crate::space::{Space, SpaceBuilder, SpaceEffects};
 
 /// The switches a [`SensorWorld`] applies to the scene and the space (see the module
@@ -194,7 +194,7 @@ impl<'v> ViewFrame<'v> {
     /// `time_s` (the communication point) when it carries no timestamp.
     pub fn resolve(
         view: &'v osi3::SensorView,
-        fallback_mounting: &crate::sensor::Mounting,
+        fallback_mounting: &crate::frames::Mounting,
         time_s: f64,
     ) -> Result<ViewFrame<'v>, ModelError> {
         let gt = view
@@ -308,7 +308,7 @@ impl SensorWorld {
     pub fn update<'w>(
         &'w mut self,
         view: &osi3::SensorView,
-        config: &SensorConfig,
+        config: &CommonConfig,
         time_s: f64,
         sensor_id: Option<u64>,
     ) -> Result<WorldFrame<'w>, ModelError> {
@@ -418,6 +418,13 @@ impl SensorWorld {
     }
 }
 
+/// Every effect the world applies (the environment's and the space's): with a model's own
+/// effects, all that model's [`Effects`] set is asked about (every effect's `requires` parent is one
+/// of these).
+pub fn effects() -> Vec<crate::effects::EffectInfo> {
+    [&crate::environment::effects()[..], crate::space::EFFECTS].concat()
+}
+
 impl Default for SensorWorld {
     fn default() -> Self {
         SensorWorld::new()
@@ -470,59 +477,6 @@ pub fn weather_from_osi(env: Option<&osi3::EnvironmentalConditions>, wet: bool) 
         w.relative_humidity = rh / 100.0;
     }
     w
-}
-
-/// The OSMP view-configuration handshake shared by the physical models: the request is the ideal
-/// model's (field of view, range, update cycle, mounting, sensor-view type), the granted
-/// configuration may narrow it, and the granted sensor id is kept for the output.
-pub struct Handshake {
-    ideal: crate::ideal::IdealSensor,
-    sensor_id: Option<u64>,
-}
-
-impl Handshake {
-    pub fn new(config: &SensorConfig) -> Handshake {
-        Handshake {
-            ideal: crate::ideal::IdealSensor::new(config.clone()),
-            sensor_id: None,
-        }
-    }
-
-    /// The SensorViewConfiguration to ask the environment simulation for.
-    pub fn request(&self) -> osi3::SensorViewConfiguration {
-        use crate::sensor::SensorModel as _;
-        self.ideal.view_configuration_request()
-    }
-
-    /// Accept a granted configuration: the notes to log, and whether the field of view or range
-    /// changed (the configuration in force is then [`Self::config`], and the model re-plans).
-    pub fn apply(
-        &mut self,
-        granted: &osi3::SensorViewConfiguration,
-    ) -> Result<(Vec<String>, bool), ModelError> {
-        use crate::sensor::SensorModel as _;
-        let before = self.ideal.config().clone();
-        let notes = self.ideal.apply_view_configuration(granted)?;
-        if let Some(v) = granted.sensor_id.and_then(|i| i.value) {
-            self.sensor_id = Some(v);
-        }
-        let c = self.ideal.config();
-        let changed = c.fov_horizontal_rad != before.fov_horizontal_rad
-            || c.fov_vertical_rad != before.fov_vertical_rad
-            || c.range_m != before.range_m;
-        Ok((notes, changed))
-    }
-
-    /// The configuration in force after the handshake.
-    pub fn config(&self) -> &SensorConfig {
-        use crate::sensor::SensorModel as _;
-        self.ideal.config()
-    }
-
-    /// The sensor id granted by the environment simulation.
-    pub fn sensor_id(&self) -> Option<u64> {
-        self.sensor_id
-    }
 }
 
 #[cfg(test)]

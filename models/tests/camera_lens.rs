@@ -5,12 +5,13 @@
 use std::f64::consts::PI;
 
 use glam::{DVec2, DVec3};
+use osiris_models::camera::SunInView;
 use osiris_models::camera::lens::{
     GhostConfig, GhostShape, IlluminationAxis, Lens, LensConfig, LensModel, RelativeIllumination,
 };
-use osiris_models::camera::render::SunInView;
 use osiris_models::camera::{ChannelImage, Flicker, FlickerSample};
-use osiris_models::effects::{Effects, catalogue};
+use osiris_models::effects::Effects;
+use osiris_models::registry::catalogue;
 use osiris_models::sensor::ModelError;
 
 const PITCH: f64 = 3.0e-6;

@@ -11,7 +11,8 @@ use osiris_models::camera::{
     CameraPreset, ChannelImage, Flicker, FlickerSample, GREEN, PwmSource, RawImage, ShutterTiming,
     SpectralBands,
 };
-use osiris_models::effects::{Effects, catalogue};
+use osiris_models::effects::Effects;
+use osiris_models::registry::catalogue;
 use osiris_models::sensor::ModelError;
 
 fn effects_off(off: &[&str]) -> Effects {

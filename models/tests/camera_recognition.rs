@@ -8,11 +8,12 @@ use common::v3;
 use glam::DVec3;
 use osiris_models::camera::lens::{Lens, LensConfig};
 use osiris_models::camera::{NO_OBJECT, RenderAux};
-use osiris_models::effects::{Effects, catalogue};
+use osiris_models::effects::Effects;
 use osiris_models::frames::{Pose, SensorFrame};
 use osiris_models::recognition::camera::{
     CameraRecognition, CameraRecognitionConfig, CameraRecognitionInput, divp_type_code,
 };
+use osiris_models::registry::catalogue;
 use osiris_proto::{id, osi3, perception};
 
 const W: usize = 640;
@@ -183,7 +184,7 @@ fn run(
     let mut rec = CameraRecognition::new(config).unwrap();
     let frame = frame();
     let input = CameraRecognitionInput {
-        aux,
+        aux: aux.objects(),
         luminance: lum,
         lens,
         ground_truth: gt,

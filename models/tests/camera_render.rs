@@ -20,13 +20,14 @@ use osiris_models::camera::render::{
     RenderConfig, RenderInput, RenderOutput, Renderer, sun_solid_angle_sr,
 };
 use osiris_models::camera::{NO_OBJECT, ShutterTiming, SpectralBands, SpectralResponse};
-use osiris_models::effects::{Effects, catalogue};
+use osiris_models::effects::Effects;
 use osiris_models::environment::lamps::{LightDistribution, Spectrum};
 use osiris_models::environment::material::{Band, MaterialDb};
 use osiris_models::environment::sky::{ClearSkyInput, spectrl2};
 use osiris_models::environment::weather::{self, Weather};
-use osiris_models::sensor::{ModelError, ModelMode, Mounting, SensorConfig, SensorKind};
+use osiris_models::registry::catalogue;
 use osiris_models::world::SensorWorld;
+use osiris_models::{ModelError, ModelMode, Mounting, SensorConfig, SensorKind};
 use osiris_proto::{id, osi3};
 
 /// A board with its face centre at `pos`, oriented by (pitch, yaw) (yaw = π faces a sensor on −x).
@@ -212,7 +213,7 @@ fn render(setup: &Setup, sv: &osi3::SensorView, cfg: &SensorConfig) -> Rendered 
     let response = response(renderer.bands());
     let (rays, focal_px) = pinhole(setup.width, setup.height, setup.fov_deg);
     let mut world = SensorWorld::new();
-    let frame = world.update(sv, cfg, 1.0, None).unwrap();
+    let frame = world.update(sv, &cfg.common(), 1.0, None).unwrap();
     let timing = setup.timing.unwrap_or(ShutterTiming {
         frame_time_s: frame.time_s,
         row_time_s: 0.0,

@@ -17,7 +17,7 @@ use osiris_models::environment::weather::Weather;
 use osiris_models::lidar::detection::{DetectorConfig, IntensityMode};
 use osiris_models::lidar::scan::{FlashPattern, MemsPattern, Preset, ScanPattern};
 use osiris_models::lidar::{LidarConfig, LidarSensor};
-use osiris_models::sensor::{
+use osiris_models::{
     ModelError, ModelMode, Mounting, SensorConfig, SensorKind, SensorModel, StepInput, StepOutput,
 };
 use osiris_proto::{id, osi3, perception::LidarPerception};
@@ -657,7 +657,7 @@ fn bad_configuration_values_name_their_key() {
         "update_cycle_s":0.1,"mounting":{"position_m":[0,0,1]},
         "lidar":{"preset":"vlp16","scan":{"spinning":{"elevation_rad":[0.1],"rpm":600}}}}"#;
     let cfg = SensorConfig::from_json_str(text).unwrap();
-    match osiris_models::sensor::build_sensor(cfg) {
+    match osiris_models::build_sensor(cfg) {
         Err(ModelError::Config(m)) => assert!(m.contains("lidar.scan.spinning"), "{m}"),
         _ => panic!("accepted a spinning pattern without a firing period"),
     }

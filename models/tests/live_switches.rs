@@ -17,13 +17,14 @@ use common::{db, sun, v3};
 use std::f64::consts::PI;
 
 use num_complex::Complex64;
-use osiris_models::effects::{EffectInfo, catalogue};
+use osiris_models::effects::EffectInfo;
 use osiris_models::environment::weather::{self, Band, RoadWetness, Weather};
 use osiris_models::lidar::detection::{DetectorConfig, IntensityMode};
 use osiris_models::lidar::scan::{MemsPattern, ScanPattern};
 use osiris_models::lidar::{LidarConfig, LidarSensor};
 use osiris_models::radar::{RadarConfig, RadarSensor};
-use osiris_models::sensor::{
+use osiris_models::registry::catalogue;
+use osiris_models::{
     ModelMode, Mounting, SensorConfig, SensorKind, SensorModel, StepInput, StepOutput,
 };
 use osiris_proto::{id, osi3, timestamp_from_seconds};

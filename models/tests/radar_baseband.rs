@@ -2,12 +2,13 @@
 
 use num_complex::Complex64;
 use osiris_models::constants::SPEED_OF_LIGHT_M_S as C_M_S;
-use osiris_models::effects::{Effects, catalogue};
+use osiris_models::effects::Effects;
 use osiris_models::radar::PathReturn;
 use osiris_models::radar::antenna::FrontEndConfig;
 use osiris_models::radar::baseband::{ChainDetection, RadarChain};
 use osiris_models::radar::processing::{CfarKind, ProcessingConfig, Window};
 use osiris_models::radar::waveform::{ArrayConfig, WaveformConfig};
+use osiris_models::registry::catalogue;
 use osiris_models::sensor::ModelError;
 
 const K_B: f64 = 1.380649e-23;

@@ -12,13 +12,14 @@ use std::f64::consts::PI;
 
 use num_complex::Complex64;
 use osiris_models::constants::SPEED_OF_LIGHT_M_S as C_M_S;
-use osiris_models::effects::{Effects, catalogue};
+use osiris_models::effects::Effects;
 use osiris_models::radar::PathReturn;
 use osiris_models::radar::antenna::{AntennaPattern, BeamShape, FrontEndConfig};
 use osiris_models::radar::baseband::{ChainDetection, RadarChain};
 use osiris_models::radar::processing::ProcessingConfig;
 use osiris_models::radar::waveform::{ArrayConfig, WaveformConfig};
 use osiris_models::radar::{RadarConfig, RadarSensor};
+use osiris_models::registry::catalogue;
 use osiris_models::sensor::{ModelMode, Mounting};
 use osiris_models::{SensorConfig, SensorKind, SensorModel, StepInput, StepOutput};
 use osiris_proto::{id, osi3, timestamp_from_seconds};

@@ -41,7 +41,7 @@ pub use player::{Player, PlayerError};
 
 use std::path::{Path, PathBuf};
 
-use osiris_models::sensor::{Mounting, SensorConfig, SensorKind};
+use osiris_models::{Mounting, SensorConfig, SensorKind};
 use osiris_proto::{id, interface_version, osi3, timestamp_from_seconds};
 use serde::{Deserialize, Serialize};
 

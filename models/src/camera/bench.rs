@@ -18,8 +18,10 @@ use std::time::Instant;
 use serde_json::{Value, json};
 
 use super::{CameraConfig, CameraSensor};
+use crate::effects::Effects;
+use crate::frames::Mounting;
 use crate::sensor::{
-    ModelMode, Mounting, SensorConfig, SensorKind, SensorModel, StepInput, StepOutput,
+    CommonConfig, ModelMode, SensorKind, SensorModel, SensorSetup, StepInput, StepOutput,
 };
 use osiris_proto::{id, osi3};
 
@@ -232,14 +234,15 @@ pub fn street_view(scene: &CameraBenchScene, t_s: f64) -> osi3::SensorView {
     }
 }
 
-/// The sensor configuration of the benchmark (ISX019 preset, 60° horizontal FoV, fixed seed).
-pub fn bench_config(scene: &CameraBenchScene) -> SensorConfig {
+/// The sensor configuration of the benchmark (ISX019 preset, 60° horizontal FoV, fixed seed): the
+/// sensor-independent part and the camera parameters.
+pub fn bench_config(scene: &CameraBenchScene) -> (CommonConfig, CameraConfig) {
     let camera = CameraConfig {
         width_px: scene.image.map(|i| i.0),
         height_px: scene.image.map(|i| i.1),
         ..Default::default()
     };
-    SensorConfig {
+    let common = CommonConfig {
         kind: SensorKind::Camera,
         mode: ModelMode::Physical,
         range_m: 200.0,
@@ -254,11 +257,9 @@ pub fn bench_config(scene: &CameraBenchScene) -> SensorConfig {
         effects: Default::default(),
         weather: None,
         seed: Some(1),
-        lidar: None,
-        radar: None,
-        camera: Some(camera),
         include_sensor_view: false,
-    }
+    };
+    (common, camera)
 }
 
 /// Run the benchmark on the reference street; `threads` defaults to 2, `frames` ≥ 1.
@@ -290,11 +291,22 @@ pub fn bench_camera_with(
         Ok(p) => p,
         Err(e) => return json!({ "error": format!("thread pool: {e}") }),
     };
-    let mut config = bench_config(scene);
+    let (mut common, camera) = bench_config(scene);
     for (k, on) in switches {
-        config.effects.insert((*k).to_string(), *on);
+        common.effects.insert((*k).to_string(), *on);
     }
-    let mut sensor = match CameraSensor::new(config.clone()) {
+    // The effects a camera is asked about: the world's and its own.
+    let known = [crate::world::effects(), super::effects()].concat();
+    let effects = match Effects::with_switches(&known, &common.effects) {
+        Ok(e) => e,
+        Err(e) => return json!({ "error": format!("`effects`: {e}") }),
+    };
+    let setup = SensorSetup {
+        common,
+        params: camera,
+        effects,
+    };
+    let mut sensor = match CameraSensor::from_setup(setup) {
         Ok(s) => s,
         Err(e) => return json!({ "error": e.to_string() }),
     };

@@ -63,8 +63,7 @@ use glam::{DVec2, DVec3, Vec3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::render::SunInView;
-use super::{CHANNELS, ChannelImage, Flicker};
+use super::{CHANNELS, ChannelImage, Flicker, SunInView};
 use crate::effects::{EffectInfo, Effects};
 use crate::error::ModelError;
 
@@ -1134,5 +1133,27 @@ fn monotonic_limit(model: &Model) -> f64 {
             }
             t_max
         }
+    }
+}
+
+/// Recognition's view of the lens (image size, pinhole parameters, pixel rays, projection).
+impl crate::recognition::camera::CameraLens for Lens {
+    fn width(&self) -> usize {
+        Lens::width(self)
+    }
+    fn height(&self) -> usize {
+        Lens::height(self)
+    }
+    fn focal_length_px(&self) -> (f64, f64) {
+        Lens::focal_length_px(self)
+    }
+    fn principal_point_px(&self) -> (f64, f64) {
+        Lens::principal_point_px(self)
+    }
+    fn ray_directions(&self) -> &[Vec3] {
+        Lens::ray_directions(self)
+    }
+    fn project(&self, dir_sensor: DVec3) -> Option<DVec2> {
+        Lens::project(self, dir_sensor)
     }
 }

@@ -33,9 +33,7 @@ pub mod spectral;
 
 mod sensor;
 
-pub use sensor::{
-    CameraChain, CameraConfig, CameraPreset, CameraSensor, EmitConfig, StageTimes, build,
-};
+pub use sensor::{CameraChain, CameraConfig, CameraPreset, CameraSensor, EmitConfig, StageTimes};
 pub use spectral::{SpectralBands, SpectralResponse};
 
 use crate::effects::EffectInfo;
@@ -47,7 +45,7 @@ pub const RED: usize = 0;
 pub const GREEN: usize = 1;
 pub const BLUE: usize = 2;
 
-/// Every camera effect (for [`crate::effects::catalogue`]).
+/// Every camera effect (for the registry's catalogue, `crate::registry::catalogue`).
 pub fn effects() -> Vec<EffectInfo> {
     [
         render::EFFECTS,
@@ -99,8 +97,19 @@ impl ChannelImage {
     }
 }
 
-/// No object at this pixel (sky, road, lane markings).
-pub const NO_OBJECT: u32 = u32::MAX;
+/// No object at this pixel (sky, road, lane markings): recognition's input contract.
+pub use crate::recognition::camera::NO_OBJECT;
+
+/// The sun when it is in front of the camera (the renderer finds it, the lens draws its flare).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SunInView {
+    /// Unit vector towards the sun in the sensor frame.
+    pub direction_sensor: glam::DVec3,
+    /// Photo-electron radiance of the solar disk per channel, e⁻ s⁻¹ m⁻² sr⁻¹.
+    pub radiance: [f64; CHANNELS],
+    /// Solid angle of the disk, sr.
+    pub solid_angle_sr: f64,
+}
 
 /// Per-pixel by-products of the render, for recognition.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -111,6 +120,17 @@ pub struct RenderAux {
     pub depth_m: Vec<f32>,
     /// Ground-truth ids (moving and stationary objects) referenced by `object_index`.
     pub object_ids: Vec<u64>,
+}
+
+impl RenderAux {
+    /// The per-pixel objects as recognition reads them.
+    pub fn objects(&self) -> crate::recognition::camera::PixelObjects<'_> {
+        crate::recognition::camera::PixelObjects {
+            object_index: &self.object_index,
+            depth_m: &self.depth_m,
+            object_ids: &self.object_ids,
+        }
+    }
 }
 
 /// A pixel that sees a pulse-width-modulated (LED) light source directly, kept apart from the

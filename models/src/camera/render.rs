@@ -84,7 +84,7 @@ use serde::{Deserialize, Serialize};
 use super::light::{LampConfig, LampLibrary, LampPlan, plan_lamps};
 use super::{
     CHANNELS, ChannelImage, Flicker, FlickerSample, NO_OBJECT, RenderAux, ShutterTiming,
-    SpectralBands, SpectralResponse,
+    SpectralBands, SpectralResponse, SunInView,
 };
 use crate::effects::{EffectInfo, Effects};
 use crate::environment::material::{Band, MaterialDb};
@@ -289,17 +289,6 @@ pub struct RenderInput<'a> {
     pub ground_truth: &'a osi3::GroundTruth,
     pub seed: u64,
     pub cycle: u64,
-}
-
-/// The sun when it is in front of the camera (for lens flare).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SunInView {
-    /// Unit vector towards the sun in the sensor frame.
-    pub direction_sensor: DVec3,
-    /// Photo-electron radiance of the solar disk per channel, e⁻ s⁻¹ m⁻² sr⁻¹.
-    pub radiance: [f64; CHANNELS],
-    /// Solid angle of the disk, sr.
-    pub solid_angle_sr: f64,
 }
 
 /// Cost split of one render, s of wall-clock time (ray-tracing shares: time summed over the worker

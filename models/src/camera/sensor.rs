@@ -13,11 +13,13 @@ use super::render::{RenderConfig, RenderInput, RenderOutput, Renderer};
 use super::spectral::SpectralConfig;
 use super::{Cfa, RawImage, RgbImage, ShutterTiming, SpectralResponse};
 use crate::effects::Effects;
+use crate::ideal::Handshake;
 use crate::recognition::camera::{
     CameraRecognition, CameraRecognitionConfig, CameraRecognitionInput,
 };
 use crate::sensor::{
-    ModelError, ModelMode, SensorConfig, SensorKind, SensorModel, StepInput, StepOutput,
+    CommonConfig, ModelError, ModelMode, SensorKind, SensorModel, SensorSetup, StepInput,
+    StepOutput,
 };
 use crate::space::Ray;
 use crate::world::SensorWorld;
@@ -181,11 +183,6 @@ impl CameraConfig {
     }
 }
 
-/// Build the physical camera model.
-pub fn build(config: SensorConfig) -> Result<Box<dyn SensorModel>, ModelError> {
-    Ok(Box::new(CameraSensor::new(config)?))
-}
-
 /// The planned chain of one camera (everything that does not change between frames).
 pub struct CameraChain {
     pub resolved: Resolved,
@@ -202,7 +199,7 @@ impl CameraChain {
     /// Plan the chain for a sensor configuration (`fov_horizontal_rad` gives the focal length when
     /// the lens config has none).
     pub fn plan(
-        config: &SensorConfig,
+        config: &CommonConfig,
         camera: &CameraConfig,
         effects: &Effects,
     ) -> Result<CameraChain, ModelError> {
@@ -269,7 +266,7 @@ pub struct StageTimes {
 pub struct CameraSensor {
     camera: CameraConfig,
     effects: Effects,
-    handshake: crate::world::Handshake,
+    handshake: Handshake,
     world: SensorWorld,
     chain: CameraChain,
     recognition: CameraRecognition,
@@ -282,25 +279,34 @@ pub struct CameraSensor {
 }
 
 impl CameraSensor {
-    /// Build from a configuration (`kind: camera`); errors name the bad key.
-    pub fn new(config: SensorConfig) -> Result<CameraSensor, ModelError> {
-        config.validate()?;
+    /// Build from a configuration (`kind: camera`: a `SensorConfig`, checked and resolved by the
+    /// registry, or a [`SensorSetup`]); errors name the bad key.
+    pub fn new(
+        config: impl TryInto<SensorSetup<CameraConfig>, Error = ModelError>,
+    ) -> Result<CameraSensor, ModelError> {
+        Self::from_setup(config.try_into()?)
+    }
+
+    /// Build from a setup (`kind: camera`); errors name the bad key.
+    pub fn from_setup(setup: SensorSetup<CameraConfig>) -> Result<CameraSensor, ModelError> {
+        let SensorSetup {
+            common: config,
+            params: camera,
+            effects,
+        } = setup;
         if config.kind != SensorKind::Camera {
             return Err(ModelError::Config(format!(
                 "`kind` must be `camera` for the camera model, got `{}`",
                 config.kind.name()
             )));
         }
-        let camera = config.camera.clone().unwrap_or_default();
-        let effects = Effects::with_switches(&crate::effects::catalogue(), &config.effects)
-            .map_err(|e| ModelError::Config(format!("`effects`: {e}")))?;
         // Environment and space-design switches (wet road, multipath, transmission, ...) reach the
         // scene and the space through the world.
         let world = SensorWorld::for_effects(&effects);
         let chain = CameraChain::plan(&config, &camera, &effects)?;
         let recognition = CameraRecognition::new(&camera.recognition)?;
         Ok(CameraSensor {
-            handshake: crate::world::Handshake::new(&config),
+            handshake: Handshake::new(&config),
             camera,
             effects,
             world,
@@ -375,7 +381,7 @@ impl SensorModel for CameraSensor {
         ModelMode::Physical
     }
 
-    fn config(&self) -> &SensorConfig {
+    fn config(&self) -> &CommonConfig {
         self.handshake.config()
     }
 
@@ -516,7 +522,7 @@ impl SensorModel for CameraSensor {
             .unwrap_or_else(|| origin.z.max(0.1));
         let t = std::time::Instant::now();
         let rec_in = CameraRecognitionInput {
-            aux: &b.render.aux,
+            aux: b.render.aux.objects(),
             luminance: &b.luminance,
             lens: &chain.lens,
             ground_truth: gt,

@@ -18,3 +18,8 @@ pub mod scene;
 pub mod sky;
 pub mod sun;
 pub mod weather;
+
+/// Every effect of the environment model (materials and weather).
+pub fn effects() -> Vec<crate::effects::EffectInfo> {
+    [material::EFFECTS, weather::EFFECTS].concat()
+}

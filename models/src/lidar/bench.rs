@@ -13,7 +13,7 @@ use glam::{DMat3, DVec3};
 use serde_json::{Value, json};
 
 use super::{FrameInput, LidarConfig, LidarEngine, SolarPlan};
-use crate::effects::{Effects, catalogue};
+use crate::effects::Effects;
 use crate::environment::material::MaterialDb;
 use crate::environment::sun::sun_direction;
 use crate::environment::weather::Weather;
@@ -53,7 +53,7 @@ pub fn bench_lidar_with(
     let (space, instances) = street_scene(scene, BvhKind::Bvh2);
     let build_s = t_build.elapsed().as_secs_f64();
     let materials = MaterialDb::builtin();
-    let effects = Effects::new(&catalogue());
+    let effects = Effects::new(&[crate::world::effects(), super::effects()].concat());
     let pose = Pose::new(DVec3::new(0.0, -6.0, 1.9), DMat3::IDENTITY);
     let mut out = serde_json::Map::new();
     out.insert("threads".into(), json!(threads));

@@ -66,10 +66,12 @@ use crate::environment::material::{self, MaterialDb, MaterialEffects};
 use crate::environment::scene::{Scene, StaticElement};
 use crate::environment::sun;
 use crate::frames::{Pose, Spherical};
+use crate::ideal::Handshake;
 use crate::recognition::lidar::LidarRecognition;
 use crate::recognition::{EgoState, LidarPoint};
 use crate::sensor::{
-    ModelError, ModelMode, SensorConfig, SensorKind, SensorModel, StepInput, StepOutput,
+    CommonConfig, ModelError, ModelMode, SensorKind, SensorModel, SensorSetup, StepInput,
+    StepOutput,
 };
 use crate::space::{Hit, Ray, Space};
 use crate::world::SensorWorld;
@@ -123,11 +125,6 @@ pub fn effects() -> Vec<EffectInfo> {
         beam::EFFECTS,
     ]
     .concat()
-}
-
-/// The physical lidar model of a configuration (`mode: physical`).
-pub fn build(config: SensorConfig) -> Result<Box<dyn SensorModel>, ModelError> {
-    Ok(Box::new(LidarSensor::new(config)?))
 }
 
 /// Values in effect after the preset defaults and the overrides.
@@ -630,7 +627,7 @@ pub struct LidarSensor {
     lidar: LidarConfig,
     resolved: Resolved,
     effects: Effects,
-    handshake: crate::world::Handshake,
+    handshake: Handshake,
     world: SensorWorld,
     engine: LidarEngine,
     recognition: LidarRecognition,
@@ -639,26 +636,35 @@ pub struct LidarSensor {
 }
 
 impl LidarSensor {
-    /// Build from a configuration (`kind: lidar`); errors name the bad key.
-    pub fn new(config: SensorConfig) -> Result<LidarSensor, ModelError> {
-        config.validate()?;
+    /// Build from a configuration (`kind: lidar`: a `SensorConfig`, checked and resolved by the
+    /// registry, or a [`SensorSetup`]); errors name the bad key.
+    pub fn new(
+        config: impl TryInto<SensorSetup<LidarConfig>, Error = ModelError>,
+    ) -> Result<LidarSensor, ModelError> {
+        Self::from_setup(config.try_into()?)
+    }
+
+    /// Build from a setup (`kind: lidar`); errors name the bad key.
+    pub fn from_setup(setup: SensorSetup<LidarConfig>) -> Result<LidarSensor, ModelError> {
+        let SensorSetup {
+            common: config,
+            params: lidar,
+            effects,
+        } = setup;
         if config.kind != SensorKind::Lidar {
             return Err(ModelError::Config(format!(
                 "`kind` must be `lidar` for the LiDAR model, got `{}`",
                 config.kind.name()
             )));
         }
-        let lidar = config.lidar.clone().unwrap_or_default();
         let resolved = lidar.resolve()?;
-        let effects = Effects::with_switches(&crate::effects::catalogue(), &config.effects)
-            .map_err(|e| ModelError::Config(format!("`effects`: {e}")))?;
         // Environment and space-design switches (wet road, multipath, transmission, ...) reach the
         // scene and the space through the world.
         let world = SensorWorld::for_effects(&effects);
         let engine = Self::plan(&config, &lidar, &resolved, &effects)?;
         let recognition = LidarRecognition::new(&lidar.recognition)?;
         Ok(LidarSensor {
-            handshake: crate::world::Handshake::new(&config),
+            handshake: Handshake::new(&config),
             lidar,
             resolved,
             effects,
@@ -671,7 +677,7 @@ impl LidarSensor {
     }
 
     fn plan(
-        config: &SensorConfig,
+        config: &CommonConfig,
         lidar: &LidarConfig,
         resolved: &Resolved,
         effects: &Effects,
@@ -713,7 +719,7 @@ impl SensorModel for LidarSensor {
         ModelMode::Physical
     }
 
-    fn config(&self) -> &SensorConfig {
+    fn config(&self) -> &CommonConfig {
         self.handshake.config()
     }
 

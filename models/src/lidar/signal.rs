@@ -397,7 +397,7 @@ mod tests {
     fn lidar_equation_matches_the_reference_example() {
         // physics.md §2.1: 75 W, ρ = 0.1, D_r = 25 mm, η = 0.5: 5.9 µW at 10 m, 234 nW at 50 m,
         // 59 nW at 100 m, 15 nW at 200 m.
-        let fx = Effects::new(&crate::effects::catalogue());
+        let fx = Effects::new(&[crate::world::effects(), crate::lidar::effects()].concat());
         let p = SignalPlan::new(&SignalConfig::default(), &fx, &Weather::CLEAR, 905.0);
         let lam = 0.1 / std::f64::consts::PI;
         for (r, want) in [

@@ -547,7 +547,7 @@ mod tests {
             rx_pattern: p,
             ..FrontEndConfig::default()
         };
-        let mut e = Effects::new(&crate::effects::catalogue());
+        let mut e = Effects::new(&[crate::world::effects(), crate::radar::effects()].concat());
         let two_way = Antennas::new(&fe, &e).main_lobe_rad();
         // Intersection with the default Tx (Gaussian 60° × 12°: ±90°, ±13.6°).
         assert!((deg(two_way[3]) - 10.0).abs() < 1e-9 && (deg(two_way[1]) - 20.0).abs() < 1e-9);

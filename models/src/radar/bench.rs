@@ -14,7 +14,7 @@ use super::antenna::FrontEndConfig;
 use super::baseband::RadarChain;
 use super::processing::ProcessingConfig;
 use super::waveform::{ArrayConfig, WaveformConfig};
-use crate::effects::{Effects, catalogue};
+use crate::effects::Effects;
 
 /// Paths per frame in the benchmark.
 pub const BENCH_PATHS: usize = 2000;
@@ -69,7 +69,7 @@ pub fn bench_radar(threads: Option<usize>, frames: usize) -> Value {
         .expect("a rayon pool");
     let waveform = WaveformConfig::default();
     let array = ArrayConfig::default();
-    let effects = Effects::new(&catalogue());
+    let effects = Effects::new(&[crate::world::effects(), super::effects()].concat());
     let mut chain = RadarChain::new(
         &waveform,
         &array,

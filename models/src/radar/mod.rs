@@ -26,10 +26,12 @@ use osiris_proto::osi3;
 use serde::{Deserialize, Serialize};
 
 use crate::effects::{EffectInfo, Effects};
+use crate::ideal::Handshake;
 use crate::recognition::radar::RadarRecognition;
 use crate::recognition::{EgoState, RadarDetection};
 use crate::sensor::{
-    ModelError, ModelMode, SensorConfig, SensorKind, SensorModel, StepInput, StepOutput,
+    CommonConfig, ModelError, ModelMode, SensorKind, SensorModel, SensorSetup, StepInput,
+    StepOutput,
 };
 use crate::world::SensorWorld;
 
@@ -94,19 +96,12 @@ pub fn effects() -> Vec<EffectInfo> {
     [propagation::EFFECTS, antenna::EFFECTS, baseband::EFFECTS].concat()
 }
 
-/// The physical radar model of a configuration (`mode: physical`).
-pub fn build(
-    config: crate::sensor::SensorConfig,
-) -> Result<Box<dyn crate::sensor::SensorModel>, crate::sensor::ModelError> {
-    Ok(Box::new(RadarSensor::new(config)?))
-}
-
 /// The physical radar sensor model: world → propagation paths → baseband chain → detections →
 /// recognition.
 pub struct RadarSensor {
     radar: RadarConfig,
     effects: Effects,
-    handshake: crate::world::Handshake,
+    handshake: Handshake,
     world: SensorWorld,
     propagator: Propagator,
     antennas: Antennas,
@@ -120,18 +115,27 @@ pub struct RadarSensor {
 }
 
 impl RadarSensor {
-    /// Build from a configuration (`kind: radar`); errors name the bad key.
-    pub fn new(config: SensorConfig) -> Result<RadarSensor, ModelError> {
-        config.validate()?;
+    /// Build from a configuration (`kind: radar`: a `SensorConfig`, checked and resolved by the
+    /// registry, or a [`SensorSetup`]); errors name the bad key.
+    pub fn new(
+        config: impl TryInto<SensorSetup<RadarConfig>, Error = ModelError>,
+    ) -> Result<RadarSensor, ModelError> {
+        Self::from_setup(config.try_into()?)
+    }
+
+    /// Build from a setup (`kind: radar`); errors name the bad key.
+    pub fn from_setup(setup: SensorSetup<RadarConfig>) -> Result<RadarSensor, ModelError> {
+        let SensorSetup {
+            common: config,
+            params: radar,
+            effects,
+        } = setup;
         if config.kind != SensorKind::Radar {
             return Err(ModelError::Config(format!(
                 "`kind` must be `radar` for the radar model, got `{}`",
                 config.kind.name()
             )));
         }
-        let radar = config.radar.clone().unwrap_or_default();
-        let effects = Effects::with_switches(&crate::effects::catalogue(), &config.effects)
-            .map_err(|e| ModelError::Config(format!("`effects`: {e}")))?;
         // Environment and space-design switches (wet road, multipath, transmission, ...) reach the
         // scene and the space through the world.
         let world = SensorWorld::for_effects(&effects);
@@ -151,7 +155,7 @@ impl RadarSensor {
         )?;
         let recognition = RadarRecognition::new(&radar.recognition)?;
         Ok(RadarSensor {
-            handshake: crate::world::Handshake::new(&config),
+            handshake: Handshake::new(&config),
             antennas: Antennas::new(&radar.front_end, &effects),
             seed: config.seed.unwrap_or(0),
             radar,
@@ -244,7 +248,7 @@ impl SensorModel for RadarSensor {
         ModelMode::Physical
     }
 
-    fn config(&self) -> &SensorConfig {
+    fn config(&self) -> &CommonConfig {
         self.handshake.config()
     }
 

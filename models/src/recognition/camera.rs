@@ -6,12 +6,12 @@
 //!
 //! # Per frame ([`CameraRecognition::step`])
 //!
-//! 1. **Visible pixels**: one pass over the render's object mask ([`RenderAux::object_index`])
+//! 1. **Visible pixels**: one pass over the render's object mask ([`PixelObjects::object_index`])
 //!    gives per object the visible pixel count, the 2D box of the visible pixels, the mean linear
 //!    luminance and the nearest depth.
 //! 2. **Occlusion reference**: the pixels the object *would* cover unoccluded are counted by
-//!    intersecting every pixel ray of the lens ([`Lens::ray_directions`]) inside the projected
-//!    ground-truth box ([`Lens::project`] of its corners) with that box (slab test). The visible
+//!    intersecting every pixel ray of the lens ([`CameraLens::ray_directions`]) inside the projected
+//!    ground-truth box ([`CameraLens::project`] of its corners) with that box (slab test). The visible
 //!    fraction is `f = visible / expected` (ground-truth pose and size are used only here).
 //! 3. **Contrast**: Weber contrast `C = (L_obj − L_bg)/L_bg` of the mean luminance of the
 //!    object's pixels against the mean of each side (above, below, left, right) of a ring around
@@ -61,8 +61,6 @@ use rand::{Rng as _, SeedableRng as _, rngs::SmallRng};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::camera::lens::Lens;
-use crate::camera::{NO_OBJECT, RenderAux};
 use crate::error::ModelError;
 use crate::frames::{
     SensorFrame, moving_object_pose, rotation_from_rpy, rpy_from_rotation, rpy_to_osi, vec3_to_osi,
@@ -268,13 +266,47 @@ pub fn typical_size_m(type_code: u32) -> [f64; 3] {
     }
 }
 
+/// No object at this pixel (sky, road, lane markings): the [`PixelObjects::object_index`] of a
+/// pixel whose primary ray hit no object.
+pub const NO_OBJECT: u32 = u32::MAX;
+
+/// What recognition reads of the render: per-pixel object ids and depths, row-major (the camera's
+/// `RenderAux` lends them, `RenderAux::objects`).
+#[derive(Debug, Clone, Copy)]
+pub struct PixelObjects<'a> {
+    /// Index into `object_ids` of the object the pixel's primary ray hit, or [`NO_OBJECT`].
+    pub object_index: &'a [u32],
+    /// Distance along the primary ray to the first hit, m (`f32::INFINITY` for sky).
+    pub depth_m: &'a [f32],
+    /// Ground-truth ids (moving and stationary objects) referenced by `object_index`.
+    pub object_ids: &'a [u64],
+}
+
+/// What recognition needs of the camera's lens (the camera's `Lens` implements it): the image size,
+/// the pinhole parameters, the primary ray of every pixel and the lens's own projection.
+pub trait CameraLens: Sync {
+    /// Image width, px.
+    fn width(&self) -> usize;
+    /// Image height, px.
+    fn height(&self) -> usize;
+    /// Focal lengths (f_x, f_y) in pixels.
+    fn focal_length_px(&self) -> (f64, f64);
+    /// Principal point (c_x, c_y) in pixels (pixel centres at +0.5).
+    fn principal_point_px(&self) -> (f64, f64);
+    /// Unit primary-ray direction of every pixel centre in the sensor frame, row-major.
+    fn ray_directions(&self) -> &[glam::Vec3];
+    /// Image position (u right, v down, px) of a sensor-frame direction; None behind the camera
+    /// or outside the image.
+    fn project(&self, dir_sensor: DVec3) -> Option<DVec2>;
+}
+
 /// What recognition sees of one frame.
 pub struct CameraRecognitionInput<'a> {
     /// Per-pixel object ids and depths of the render.
-    pub aux: &'a RenderAux,
+    pub aux: PixelObjects<'a>,
     /// Linear relative luminance per pixel (ISP, before tone mapping), row-major.
     pub luminance: &'a [f32],
-    pub lens: &'a Lens,
+    pub lens: &'a dyn CameraLens,
     /// The SensorView's ground truth (object classes and sizes; never their positions).
     pub ground_truth: &'a osi3::GroundTruth,
     /// The sensor frame in global coordinates (for the OSI output in the host frame).
@@ -315,7 +347,7 @@ impl Default for Stats {
 /// What recognition measured of one object in one frame (before the detection draw).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Measurement {
-    /// Index into `RenderAux::object_ids`.
+    /// Index into [`PixelObjects::object_ids`].
     pub object_index: u32,
     pub ground_truth_id: u64,
     pub visible_px: u64,
@@ -701,7 +733,7 @@ impl CameraRecognition {
 }
 
 /// Pixels whose lens ray hits the box (sensor-frame centre, box → sensor rotation, half extents).
-fn expected_pixels(lens: &Lens, centre_s: DVec3, rot_s: DMat3, half: DVec3) -> u64 {
+fn expected_pixels(lens: &dyn CameraLens, centre_s: DVec3, rot_s: DMat3, half: DVec3) -> u64 {
     let (w, h) = (lens.width(), lens.height());
     let (fx, fy) = lens.focal_length_px();
     let (cx, cy) = lens.principal_point_px();
