@@ -3,7 +3,18 @@
 //! Doppler, and the end-to-end detections of a corner reflector.
 
 mod common;
-use common::{coherent_power_w, db, v3};
+use common::{coherent_power_w, db, moving_object, v3};
+
+/// A moving object with `reference` and id [`TARGET`] at `pos`, yaw, box `dim`, velocity.
+fn target(
+    reference: &str,
+    pos: [f64; 3],
+    yaw: f64,
+    dim: [f64; 3],
+    vel: [f64; 3],
+) -> osi3::MovingObject {
+    moving_object(reference, TARGET, pos, yaw, dim, vel)
+}
 
 use std::f64::consts::PI;
 
@@ -17,42 +28,6 @@ use osiris_proto::{id, osi3, timestamp_from_seconds};
 
 const C0: f64 = 299_792_458.0;
 const TARGET: u64 = 7;
-
-/// A moving object with `reference` at `pos`, yaw, box `dim`, velocity.
-fn target(
-    reference: &str,
-    pos: [f64; 3],
-    yaw: f64,
-    dim: [f64; 3],
-    vel: [f64; 3],
-) -> osi3::MovingObject {
-    osi3::MovingObject {
-        id: Some(id(TARGET)),
-        base: Some(osi3::BaseMoving {
-            dimension: Some(osi3::Dimension3d {
-                length: Some(dim[0]),
-                width: Some(dim[1]),
-                height: Some(dim[2]),
-            }),
-            position: Some(v3(pos)),
-            orientation: Some(osi3::Orientation3d {
-                roll: Some(0.0),
-                pitch: Some(0.0),
-                yaw: Some(yaw),
-            }),
-            velocity: Some(v3(vel)),
-            orientation_rate: Some(osi3::Orientation3d {
-                roll: Some(0.0),
-                pitch: Some(0.0),
-                yaw: Some(0.0),
-            }),
-            ..Default::default()
-        }),
-        r#type: Some(osi3::moving_object::Type::Other as i32),
-        model_reference: Some(reference.into()),
-        ..Default::default()
-    }
-}
 
 /// Trihedral of edge `a` at range `r`, azimuth `az`, height `h`, facing the sensor at the origin.
 fn trihedral(a: f64, r: f64, az: f64, h: f64, vel: [f64; 3]) -> osi3::MovingObject {

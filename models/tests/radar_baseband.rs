@@ -1,5 +1,8 @@
 //! FMCW baseband synthesis and processing against closed forms (physics.md §1.1, §1.6, §1.7).
 
+mod common;
+use common::{point_path, run_chain};
+
 use num_complex::Complex64;
 use osiris_models::constants::SPEED_OF_LIGHT_M_S as C_M_S;
 use osiris_models::effects::Effects;
@@ -39,27 +42,6 @@ fn chain() -> RadarChain {
     chain_with(ProcessingConfig::default(), &effects(&[], &[]))
 }
 
-/// A monostatic point target: power at the receiver input in dBm.
-fn target(range_m: f64, v_m_s: f64, az_deg: f64, el_deg: f64, dbm: f64, id: u64) -> PathReturn {
-    let (az, el) = (az_deg.to_radians(), el_deg.to_radians());
-    PathReturn {
-        range_m,
-        range_rate_m_s: v_m_s,
-        tx_azimuth_rad: az,
-        tx_elevation_rad: el,
-        rx_azimuth_rad: az,
-        rx_elevation_rad: el,
-        amplitude: Complex64::new((1e-3 * 10f64.powf(dbm / 10.0)).sqrt(), 0.0),
-        object_id: id,
-    }
-}
-
-fn run(chain: &mut RadarChain, paths: &[PathReturn], seed: u64) -> Vec<ChainDetection> {
-    let mut out = Vec::new();
-    chain.run(paths, seed, &mut out);
-    out
-}
-
 fn strongest(d: &[ChainDetection]) -> ChainDetection {
     *d.iter()
         .max_by(|a, b| a.power_dbm.total_cmp(&b.power_dbm))
@@ -77,7 +59,7 @@ fn range_velocity_azimuth_accuracy() {
         (42.1, 0.0, -45.0),
         (8.77, 9.1, 20.0),
     ] {
-        let d = run(&mut c, &[target(r, v, az, 0.0, -80.0, 7)], 1);
+        let d = run_chain(&mut c, &[point_path(r, v, az, 0.0, -80.0, 7)], 1);
         let s = strongest(&d);
         println!(
             "target {r} m {v} m/s {az}°: errors {:.3} m, {:.3} km/h, {:.2}°",
@@ -109,7 +91,11 @@ fn range_velocity_azimuth_accuracy() {
 #[test]
 fn elevation_from_the_vertical_offset() {
     let mut c = chain();
-    let s = strongest(&run(&mut c, &[target(30.2, 1.0, 10.0, 8.0, -80.0, 1)], 2));
+    let s = strongest(&run_chain(
+        &mut c,
+        &[point_path(30.2, 1.0, 10.0, 8.0, -80.0, 1)],
+        2,
+    ));
     assert!(
         (s.elevation_rad.to_degrees() - 8.0).abs() < 2.0,
         "{}",
@@ -150,11 +136,11 @@ fn resolution_is_c_over_2b_and_lambda_over_2nt() {
     let r0 = 40.0 * dr;
     for (sep, expect) in [(1.5, 2), (0.5, 1)] {
         let (a, b) = (r0 - 0.5 * sep * dr, r0 + 0.5 * sep * dr);
-        let d = run(
+        let d = run_chain(
             &mut c,
             &[
-                target(a, 0.0, 0.0, 0.0, -80.0, 1),
-                target(b, 0.0, 0.0, 0.0, -80.0, 2),
+                point_path(a, 0.0, 0.0, 0.0, -80.0, 1),
+                point_path(b, 0.0, 0.0, 0.0, -80.0, 2),
             ],
             3,
         );
@@ -168,11 +154,11 @@ fn resolution_is_c_over_2b_and_lambda_over_2nt() {
     let v0 = 10.0 * dv;
     for (sep, expect) in [(1.5, 2), (0.5, 1)] {
         let (a, b) = (v0 - 0.5 * sep * dv, v0 + 0.5 * sep * dv);
-        let d = run(
+        let d = run_chain(
             &mut c,
             &[
-                target(r0, a, 0.0, 0.0, -80.0, 1),
-                target(r0, b, 0.0, 0.0, -80.0, 2),
+                point_path(r0, a, 0.0, 0.0, -80.0, 1),
+                point_path(r0, b, 0.0, 0.0, -80.0, 2),
             ],
             4,
         );
@@ -195,7 +181,7 @@ fn main_lobe_half_power_width_is_the_windows() {
         &effects(&["radar.phase_noise"], &[]),
     );
     let mut bin_power = |r: f64, v: f64, dbin: usize| {
-        run(&mut c, &[target(r, v, 0.0, 0.0, -70.0, 1)], 5);
+        run_chain(&mut c, &[point_path(r, v, 0.0, 0.0, -70.0, 1)], 5);
         let m = c.range_doppler_map();
         m.power_dbm[50 * m.doppler_bins + m.doppler_bins / 2 + dbin] as f64
     };
@@ -227,7 +213,11 @@ fn processed_snr_and_power_match_the_closed_form() {
         + 10.0 * 12f64.log10();
     let mut snrs = Vec::new();
     for seed in 0..4 {
-        let d = run(&mut c, &[target(60.0 * dr, 0.0, 0.0, 0.0, p_dbm, 1)], seed);
+        let d = run_chain(
+            &mut c,
+            &[point_path(60.0 * dr, 0.0, 0.0, 0.0, p_dbm, 1)],
+            seed,
+        );
         let s = strongest(&d);
         assert!(
             (s.power_dbm - p_dbm).abs() < 1.0,
@@ -256,7 +246,7 @@ fn false_alarm_rate(kind: CfarKind, p_fa: f64, frames: u64) -> f64 {
     let cells = (w.samples_per_chirp * w.chirps_per_frame) as f64;
     let mut n = 0usize;
     for seed in 0..frames {
-        n += run(&mut c, &[], 100 + seed).len();
+        n += run_chain(&mut c, &[], 100 + seed).len();
     }
     n as f64 / (cells * frames as f64)
 }
@@ -287,11 +277,11 @@ fn cube_matches_the_if_model_sample_by_sample() {
     let e = effects(&["radar.phase_noise", "radar.receiver_compression"], &[]);
     let mut c = RadarChain::new(&w, &a, &fe, &ProcessingConfig::default(), &e).unwrap();
     let paths = [
-        target(12.34, 3.3, 17.0, 4.0, -70.0, 1),
-        target(71.9, -8.1, -40.0, -2.0, -76.0, 2),
-        target(44.4, 0.7, 5.0, 0.0, -73.0, 3),
+        point_path(12.34, 3.3, 17.0, 4.0, -70.0, 1),
+        point_path(71.9, -8.1, -40.0, -2.0, -76.0, 2),
+        point_path(44.4, 0.7, 5.0, 0.0, -73.0, 3),
     ];
-    run(&mut c, &paths, 1);
+    run_chain(&mut c, &paths, 1);
     let (re, im) = c.last_cube();
     let (ns, nc, nrx) = (w.samples_per_chirp, w.chirps_per_frame, a.n_rx());
     let lam = w.wavelength_m();
@@ -335,14 +325,14 @@ fn deterministic_for_a_seed() {
     let mut a = chain();
     let mut b = chain();
     let paths = [
-        target(20.3, 2.0, 10.0, 0.0, -95.0, 1),
-        target(55.0, -3.0, -30.0, 0.0, -105.0, 2),
+        point_path(20.3, 2.0, 10.0, 0.0, -95.0, 1),
+        point_path(55.0, -3.0, -30.0, 0.0, -105.0, 2),
     ];
-    let da = run(&mut a, &paths, 42);
-    let db = run(&mut b, &paths, 42);
+    let da = run_chain(&mut a, &paths, 42);
+    let db = run_chain(&mut b, &paths, 42);
     assert_eq!(da, db);
     assert_eq!(a.last_cube(), b.last_cube());
-    run(&mut b, &paths, 43);
+    run_chain(&mut b, &paths, 43);
     assert_ne!(a.last_cube(), b.last_cube());
 }
 
@@ -350,20 +340,20 @@ fn deterministic_for_a_seed() {
 fn receiver_compression_limits_strong_targets() {
     // +5 dBm is 10 dB above the (guessed) −5 dBm input P1dB: compressed by several dB when on.
     let dr = WaveformConfig::default().range_resolution_m();
-    let t = [target(30.0 * dr, 0.0, 0.0, 0.0, 5.0, 1)];
+    let t = [point_path(30.0 * dr, 0.0, 0.0, 0.0, 5.0, 1)];
     let mut on = chain();
     let mut off = chain_with(
         ProcessingConfig::default(),
         &effects(&["radar.receiver_compression"], &[]),
     );
-    let p_on = strongest(&run(&mut on, &t, 1)).power_dbm;
-    let p_off = strongest(&run(&mut off, &t, 1)).power_dbm;
+    let p_on = strongest(&run_chain(&mut on, &t, 1)).power_dbm;
+    let p_off = strongest(&run_chain(&mut off, &t, 1)).power_dbm;
     assert!((p_off - 5.0).abs() < 0.5, "linear receiver: {p_off} dBm");
     assert!(p_on < 5.0 - 3.0, "compressed: {p_on} dBm");
     // A weak target is unaffected.
-    let t = [target(30.0 * dr, 0.0, 0.0, 0.0, -90.0, 1)];
-    let a = strongest(&run(&mut on, &t, 1)).power_dbm;
-    let b = strongest(&run(&mut off, &t, 1)).power_dbm;
+    let t = [point_path(30.0 * dr, 0.0, 0.0, 0.0, -90.0, 1)];
+    let a = strongest(&run_chain(&mut on, &t, 1)).power_dbm;
+    let b = strongest(&run_chain(&mut off, &t, 1)).power_dbm;
     assert!((a - b).abs() < 1e-3, "{a} vs {b}");
 }
 
@@ -390,9 +380,9 @@ fn phase_noise_raises_the_doppler_floor_with_range() {
         &effects(&["radar.phase_noise"], &[]),
     );
     let rise = |n: usize, on: &mut RadarChain, off: &mut RadarChain| {
-        let t = [target(n as f64 * dr, 0.0, 0.0, 0.0, -40.0, 1)];
-        run(on, &t, 9);
-        run(off, &t, 9);
+        let t = [point_path(n as f64 * dr, 0.0, 0.0, 0.0, -40.0, 1)];
+        run_chain(on, &t, 9);
+        run_chain(off, &t, 9);
         doppler_floor(on, n) - doppler_floor(off, n)
     };
     let near = rise(10, &mut on, &mut off);
@@ -409,8 +399,8 @@ fn interference_raises_the_noise_floor() {
         &effects(&[], &["radar.interference"]),
     );
     let mut off = chain();
-    run(&mut on, &[], 3);
-    run(&mut off, &[], 3);
+    run_chain(&mut on, &[], 3);
+    run_chain(&mut off, &[], 3);
     let median = |c: &RadarChain| {
         let mut v = c.range_doppler_map().power_dbm;
         v.sort_by(f32::total_cmp);
@@ -424,7 +414,7 @@ fn interference_raises_the_noise_floor() {
 fn range_doppler_map_export() {
     let dr = WaveformConfig::default().range_resolution_m();
     let mut c = chain();
-    run(&mut c, &[target(40.0 * dr, 0.0, 0.0, 0.0, -70.0, 1)], 1);
+    run_chain(&mut c, &[point_path(40.0 * dr, 0.0, 0.0, 0.0, -70.0, 1)], 1);
     let m = c.range_doppler_map();
     assert_eq!((m.range_bins, m.doppler_bins), (256, 128));
     // The target's cell is the brightest: received power −70 dBm within the window scalloping.
@@ -495,7 +485,7 @@ fn near(d: &[ChainDetection], r: f64, v: f64, dr: f64, dv: f64) -> Vec<ChainDete
 
 /// `target` with a carrier phase offset (the relative phase of returns in one cell).
 fn target_phase(r: f64, az_deg: f64, el_deg: f64, dbm: f64, phase: f64, id: u64) -> PathReturn {
-    let mut p = target(r, 0.0, az_deg, el_deg, dbm, id);
+    let mut p = point_path(r, 0.0, az_deg, el_deg, dbm, id);
     p.amplitude *= Complex64::from_polar(1.0, phase);
     p
 }
@@ -520,7 +510,7 @@ fn three_targets_in_one_range_doppler_cell_are_three_detections() {
             target_phase(20.0, 0.0, 0.0, -80.0, phases[1], 2),
             target_phase(20.0, az, 0.0, -80.0, phases[2], 3),
         ];
-        let d = run(&mut c, &paths, seed);
+        let d = run_chain(&mut c, &paths, seed);
         let cell = near(&d, 20.0, 0.0, 0.5, 0.5);
         assert_eq!(cell.len(), 3, "phases {phases:?}: {cell:#?}");
         for (truth, id) in [(-az, 1u64), (0.0, 2), (az, 3)] {
@@ -552,11 +542,14 @@ fn three_targets_in_one_range_doppler_cell_are_three_detections() {
     };
     let mut c1 = chain_with(p, &effects(&[], &[]));
     let paths = [
-        target(20.0, 0.0, -az, 0.0, -80.0, 1),
-        target(20.0, 0.0, 0.0, 0.0, -80.0, 2),
-        target(20.0, 0.0, az, 0.0, -80.0, 3),
+        point_path(20.0, 0.0, -az, 0.0, -80.0, 1),
+        point_path(20.0, 0.0, 0.0, 0.0, -80.0, 2),
+        point_path(20.0, 0.0, az, 0.0, -80.0, 3),
     ];
-    assert_eq!(near(&run(&mut c1, &paths, 1), 20.0, 0.0, 0.5, 0.5).len(), 1);
+    assert_eq!(
+        near(&run_chain(&mut c1, &paths, 1), 20.0, 0.0, 0.5, 0.5).len(),
+        1
+    );
 }
 
 #[test]
@@ -582,7 +575,11 @@ fn a_single_target_gives_one_detection_per_cell_no_sidelobe_ghosts() {
         .into_iter()
         .enumerate()
         {
-            let d = run(&mut c, &[target(31.3, 2.2, az, el, dbm, 5)], i as u64 + 10);
+            let d = run_chain(
+                &mut c,
+                &[point_path(31.3, 2.2, az, el, dbm, 5)],
+                i as u64 + 10,
+            );
             let cell = near(&d, 31.3, 2.2, 0.6, 0.3);
             assert_eq!(cell.len(), 1, "{window:?} {az}° {dbm} dBm: {cell:#?}");
             let x = cell[0];
@@ -600,15 +597,15 @@ fn a_weak_target_three_resolution_cells_from_a_strong_one_is_found() {
     // strong one.
     let (s1, s2) = ((-0.35f64).asin().to_degrees(), 0.40f64.asin().to_degrees());
     let paths = [
-        target(27.0, -3.0, s1, 0.0, -70.0, 1),
-        target(27.0, -3.0, s2, 0.0, -90.0, 2),
+        point_path(27.0, -3.0, s1, 0.0, -70.0, 1),
+        point_path(27.0, -3.0, s2, 0.0, -90.0, 2),
     ];
     let p = ProcessingConfig {
         angle_peak_dynamic_range_db: 25.0,
         ..ProcessingConfig::default()
     };
     let mut c = chain_with(p, &effects(&[], &[]));
-    let mut cell = near(&run(&mut c, &paths, 3), 27.0, -3.0, 0.5, 0.3);
+    let mut cell = near(&run_chain(&mut c, &paths, 3), 27.0, -3.0, 0.5, 0.3);
     cell.sort_by(|a, b| b.power_dbm.total_cmp(&a.power_dbm));
     assert_eq!(cell.len(), 2, "{cell:#?}");
     assert!(
@@ -626,7 +623,7 @@ fn a_weak_target_three_resolution_cells_from_a_strong_one_is_found() {
         assert!(x.elevation_rad.to_degrees().abs() < 1.5, "{x:?}");
     }
     let mut c15 = chain();
-    let cell = near(&run(&mut c15, &paths, 3), 27.0, -3.0, 0.5, 0.3);
+    let cell = near(&run_chain(&mut c15, &paths, 3), 27.0, -3.0, 0.5, 0.3);
     assert_eq!(cell.len(), 1, "{cell:#?}");
 }
 
@@ -728,7 +725,12 @@ fn compression_follows_the_front_end_p1db() {
             &e,
         )
         .unwrap();
-        strongest(&run(&mut c, &[target(25.3, 1.0, 0.0, 0.0, -20.0, 1)], 1)).power_dbm
+        strongest(&run_chain(
+            &mut c,
+            &[point_path(25.3, 1.0, 0.0, 0.0, -20.0, 1)],
+            1,
+        ))
+        .power_dbm
     };
     let linear = power(-5.0);
     assert!((linear + 20.0).abs() < 1.0, "{linear}");

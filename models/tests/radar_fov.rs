@@ -6,11 +6,10 @@
 //! `v − 2 v_max round(v / 2 v_max)` with `2 v_max = λ / (2 N_tx T_c)`.
 
 mod common;
-use common::{db, v3};
+use common::{db, moving_object, point_path, run_chain};
 
 use std::f64::consts::PI;
 
-use num_complex::Complex64;
 use osiris_models::constants::SPEED_OF_LIGHT_M_S as C_M_S;
 use osiris_models::effects::Effects;
 use osiris_models::radar::PathReturn;
@@ -22,7 +21,7 @@ use osiris_models::radar::{RadarConfig, RadarSensor};
 use osiris_models::registry::catalogue;
 use osiris_models::sensor::{ModelMode, Mounting};
 use osiris_models::{SensorConfig, SensorKind, SensorModel, StepInput, StepOutput};
-use osiris_proto::{id, osi3, timestamp_from_seconds};
+use osiris_proto::{osi3, timestamp_from_seconds};
 
 /// Declared field of view of these tests (the default radar's): 90° × 10°.
 const FOV_H_DEG: f64 = 90.0;
@@ -41,27 +40,6 @@ fn chain_with(array: &ArrayConfig, processing: &ProcessingConfig, e: &Effects) -
         e,
     )
     .expect("chain")
-}
-
-/// A monostatic point target: power at the receiver input in dBm.
-fn point(range_m: f64, v_m_s: f64, az_deg: f64, el_deg: f64, dbm: f64, id: u64) -> PathReturn {
-    let (az, el) = (az_deg.to_radians(), el_deg.to_radians());
-    PathReturn {
-        range_m,
-        range_rate_m_s: v_m_s,
-        tx_azimuth_rad: az,
-        tx_elevation_rad: el,
-        rx_azimuth_rad: az,
-        rx_elevation_rad: el,
-        amplitude: Complex64::new((1e-3 * 10f64.powf(dbm / 10.0)).sqrt(), 0.0),
-        object_id: id,
-    }
-}
-
-fn run(chain: &mut RadarChain, paths: &[PathReturn], seed: u64) -> Vec<ChainDetection> {
-    let mut out = Vec::new();
-    chain.run(paths, seed, &mut out);
-    out
 }
 
 fn in_fov(az_rad: f64, el_rad: f64) -> bool {
@@ -98,16 +76,18 @@ fn reflectors_just_outside_the_field_of_view_are_not_reported() {
     let mut paths: Vec<PathReturn> = outside
         .iter()
         .enumerate()
-        .map(|(i, &(r, v, a, el))| point(r, v, a, el, -60.0, 10 + i as u64))
+        .map(|(i, &(r, v, a, el))| point_path(r, v, a, el, -60.0, 10 + i as u64))
         .collect();
-    paths.push(point(inside.0, inside.1, inside.2, inside.3, -60.0, 99));
+    paths.push(point_path(
+        inside.0, inside.1, inside.2, inside.3, -60.0, 99,
+    ));
 
     let gated = ProcessingConfig::default();
     let mut c = chain_with(&ArrayConfig::default(), &gated, &e);
     c.set_field_of_view(FOV_H_DEG.to_radians(), FOV_V_DEG.to_radians());
     let g = c.angle_gate_rad();
     assert!((g[1] - 45f64.to_radians()).abs() < 1e-12 && (g[3] - 5f64.to_radians()).abs() < 1e-12);
-    let d = run(&mut c, &paths, 3);
+    let d = run_chain(&mut c, &paths, 3);
     for x in &d {
         assert!(
             in_fov(x.azimuth_rad, x.elevation_rad),
@@ -137,7 +117,7 @@ fn reflectors_just_outside_the_field_of_view_are_not_reported() {
     };
     let mut c = chain_with(&ArrayConfig::default(), &open, &e);
     c.set_field_of_view(FOV_H_DEG.to_radians(), FOV_V_DEG.to_radians());
-    let d = run(&mut c, &paths, 3);
+    let d = run_chain(&mut c, &paths, 3);
     for &(r, _, a, el) in &outside {
         let n = near_range(&d, r);
         assert!(
@@ -171,8 +151,8 @@ fn the_main_lobe_bounds_the_gate() {
     };
     let edge = (PI / 1.39156 * 3f64.to_radians().sin()).asin();
     let paths = [
-        point(25.2, 1.1, 10.0, 9.0, -60.0, 1),
-        point(41.7, -1.9, -10.0, 3.0, -60.0, 2),
+        point_path(25.2, 1.1, 10.0, 9.0, -60.0, 1),
+        point_path(41.7, -1.9, -10.0, 3.0, -60.0, 2),
     ];
     for pattern_on in [true, false] {
         let mut e = Effects::new(&catalogue());
@@ -194,7 +174,7 @@ fn the_main_lobe_bounds_the_gate() {
         } else {
             assert!((g[3] - 0.5 * PI).abs() < 1e-12, "{g:?}");
         }
-        let d = run(&mut c, &paths, 5);
+        let d = run_chain(&mut c, &paths, 5);
         let high = near_range(&d, 25.2);
         let low = near_range(&d, 41.7);
         assert!(
@@ -237,11 +217,11 @@ fn tdm_doppler_ambiguity_is_resolved_before_the_angle_estimate() {
     .iter()
     .enumerate()
     {
-        let paths = [point(r, v, az, el, -80.0, 1)];
+        let paths = [point_path(r, v, az, el, -80.0, 1)];
         let strongest = |p: &ProcessingConfig| {
             let mut c = chain_with(&a, p, &e);
             c.set_field_of_view(FOV_H_DEG.to_radians(), FOV_V_DEG.to_radians());
-            run(&mut c, &paths, 11 + k as u64)
+            run_chain(&mut c, &paths, 11 + k as u64)
                 .into_iter()
                 .max_by(|x, y| x.power_dbm.total_cmp(&y.power_dbm))
         };
@@ -299,7 +279,10 @@ fn grating_lobes_of_a_sparse_array_are_folded_onto_the_target() {
         let r = 20.3 + 7.0 * k as f64;
         let mut c = chain_with(&array, &ProcessingConfig::default(), &e);
         c.set_field_of_view(FOV_H_DEG.to_radians(), FOV_V_DEG.to_radians());
-        let d = near_range(&run(&mut c, &[point(r, 1.0, az, 0.0, -70.0, 1)], 2), r);
+        let d = near_range(
+            &run_chain(&mut c, &[point_path(r, 1.0, az, 0.0, -70.0, 1)], 2),
+            r,
+        );
         assert!(!d.is_empty(), "{az}°: no detection");
         for x in &d {
             let got = x.azimuth_rad.to_degrees();
@@ -314,47 +297,10 @@ fn grating_lobes_of_a_sparse_array_are_folded_onto_the_target() {
 // ---------------------------------------------------------------------------------------------
 // Sensor level: ray-traced scenes through the whole model.
 
-/// A moving object with `reference`, id, at `pos` with yaw, box `dim` and velocity `vel`.
-fn object(
-    reference: &str,
-    oid: u64,
-    pos: [f64; 3],
-    yaw: f64,
-    dim: [f64; 3],
-    vel: [f64; 3],
-) -> osi3::MovingObject {
-    osi3::MovingObject {
-        id: Some(id(oid)),
-        base: Some(osi3::BaseMoving {
-            dimension: Some(osi3::Dimension3d {
-                length: Some(dim[0]),
-                width: Some(dim[1]),
-                height: Some(dim[2]),
-            }),
-            position: Some(v3(pos)),
-            orientation: Some(osi3::Orientation3d {
-                roll: Some(0.0),
-                pitch: Some(0.0),
-                yaw: Some(yaw),
-            }),
-            velocity: Some(v3(vel)),
-            orientation_rate: Some(osi3::Orientation3d {
-                roll: Some(0.0),
-                pitch: Some(0.0),
-                yaw: Some(0.0),
-            }),
-            ..Default::default()
-        }),
-        r#type: Some(osi3::moving_object::Type::Other as i32),
-        model_reference: Some(reference.into()),
-        ..Default::default()
-    }
-}
-
 /// Trihedral of edge `a` at range `r`, azimuth `az`, height `h`, facing the sensor at the origin,
 /// moving radially at `v_m_s` (positive away).
 fn trihedral(oid: u64, a: f64, r: f64, az: f64, h: f64, v_m_s: f64) -> osi3::MovingObject {
-    object(
+    moving_object(
         &format!("osiris:trihedral?edge_m={a}"),
         oid,
         [r * az.cos(), r * az.sin(), h],
@@ -455,7 +401,7 @@ fn crowded_scene_stays_in_the_field_of_view_with_physical_rcs() {
                 let v = -30.0 + (i as f64 * 19.0) % 38.0;
                 let (x0, y0) = (r * az.cos(), r * az.sin());
                 let (vx, vy) = (v * az.cos(), v * az.sin());
-                object(
+                moving_object(
                     reference,
                     100 + i,
                     [x0 + vx * t, y0 + vy * t, 0.5 * dim[2]],

@@ -67,3 +67,66 @@ pub fn rpy(roll: f64, pitch: f64, yaw: f64) -> osi3::Orientation3d {
         yaw: Some(yaw),
     }
 }
+
+/// A moving object of `model_reference` `reference` (OSI type OTHER) with id `oid`, its box centre
+/// at `pos` (m), yaw (rad), box `dim` (length, width, height, m), velocity `vel` (m/s), no rotation.
+pub fn moving_object(
+    reference: &str,
+    oid: u64,
+    pos: [f64; 3],
+    yaw: f64,
+    dim: [f64; 3],
+    vel: [f64; 3],
+) -> osi3::MovingObject {
+    osi3::MovingObject {
+        id: Some(osiris_proto::id(oid)),
+        base: Some(osi3::BaseMoving {
+            dimension: Some(self::dim(dim)),
+            position: Some(v3(pos)),
+            orientation: Some(rpy(0.0, 0.0, yaw)),
+            velocity: Some(v3(vel)),
+            orientation_rate: Some(rpy(0.0, 0.0, 0.0)),
+            ..Default::default()
+        }),
+        r#type: Some(osi3::moving_object::Type::Other as i32),
+        model_reference: Some(reference.into()),
+        ..Default::default()
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Radar chain
+
+/// A monostatic point path at `range_m`, range rate `v_m_s`, azimuth / elevation (deg) and
+/// received power `dbm` (at the receiver input), object id `id`.
+pub fn point_path(
+    range_m: f64,
+    v_m_s: f64,
+    az_deg: f64,
+    el_deg: f64,
+    dbm: f64,
+    id: u64,
+) -> PathReturn {
+    let (az, el) = (az_deg.to_radians(), el_deg.to_radians());
+    PathReturn {
+        range_m,
+        range_rate_m_s: v_m_s,
+        tx_azimuth_rad: az,
+        tx_elevation_rad: el,
+        rx_azimuth_rad: az,
+        rx_elevation_rad: el,
+        amplitude: Complex64::new((1e-3 * 10f64.powf(dbm / 10.0)).sqrt(), 0.0),
+        object_id: id,
+    }
+}
+
+/// One frame of the chain over `paths` with noise seed `seed`.
+pub fn run_chain(
+    chain: &mut osiris_models::radar::baseband::RadarChain,
+    paths: &[PathReturn],
+    seed: u64,
+) -> Vec<osiris_models::radar::baseband::ChainDetection> {
+    let mut out = Vec::new();
+    chain.run(paths, seed, &mut out);
+    out
+}
