@@ -9,6 +9,7 @@
 
 pub mod camera;
 pub mod common;
+pub mod ego_motion;
 pub mod lidar;
 pub mod radar;
 pub mod tracking;
