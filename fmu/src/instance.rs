@@ -20,9 +20,7 @@
 use std::ffi::CString;
 use std::path::{Path, PathBuf};
 
-use osiris_models::{
-    CommonConfig, ModelError, ModelMode, SensorConfig, SensorModel, StepInput, StepOutput,
-};
+use osiris_models::{ModelError, ModelMode, SensorConfig, SensorModel, StepInput, StepOutput};
 use osiris_proto::{Message, osi3};
 
 use crate::descriptor::{FmuDescriptor, SensorRole};
@@ -154,8 +152,9 @@ struct Runtime {
     valid: bool,
     /// Reused step output.
     step_out: StepOutput,
-    /// Frames produced since instantiation/reset (the next frame's `cycle_counter`).
-    cycle_counter: u64,
+    /// Frames published since instantiation/reset (for the log; the output's `cycle_counter` is
+    /// the model's).
+    frames_published: u64,
     /// End of the last successful step, s.
     last_successful_time_s: f64,
 }
@@ -173,7 +172,7 @@ impl Runtime {
             count: 0,
             valid: false,
             step_out: StepOutput::default(),
-            cycle_counter: 0,
+            frames_published: 0,
             last_successful_time_s: 0.0,
         }
     }
@@ -449,7 +448,7 @@ impl Instance {
         }
         self.state = Terminated;
         self.debug(LogCategory::Fmi, || {
-            format!("{F}: terminated after {} frames", self.rt.cycle_counter)
+            format!("{F}: terminated after {} frames", self.rt.frames_published)
         });
         Fmi2Status::Ok
     }
@@ -795,7 +794,7 @@ impl Instance {
                 "built-in defaults".to_string(),
             )
         } else if trimmed.starts_with('{') {
-            let c = SensorConfig::from_json_str(trimmed)
+            let c = SensorConfig::parse_json(trimmed)
                 .map_err(|e| format!("parameter `config` (inline JSON): {e}"))?;
             (c, "inline JSON".to_string())
         } else {
@@ -827,7 +826,7 @@ impl Instance {
                     let json = std::fs::read_to_string(&path).map_err(|e| {
                         format!("cannot read config file `{}`: {e}", path.display())
                     })?;
-                    let c = SensorConfig::from_json_str(&json)
+                    let c = SensorConfig::parse_json(&json)
                         .map_err(|e| format!("config file `{}`: {e}", path.display()))?;
                     (c, format!("config file `{}`", path.display()))
                 }
@@ -863,9 +862,7 @@ impl Instance {
                 overrides.join(", ")
             ));
         }
-        config
-            .validate()
-            .map_err(|e| format!("{e} (configuration from {source})"))?;
+        // Checked once, when the model is built (`ensure_model`).
         Ok((config, warnings, source))
     }
 
@@ -921,8 +918,8 @@ impl Instance {
                 None => {
                     status = self.ensure_model()?;
                     let model = self.rt.model.as_ref().expect("ensure_model succeeded");
-                    let mut request = model.view_configuration_request();
-                    fill_request_defaults(&mut request, model.config());
+                    // The model's request as it is (`osiris_models::handshake`).
+                    let request = model.view_configuration_request();
                     let bytes = request.encode_to_vec();
                     self.debug(LogCategory::Osmp, || {
                         format!(
@@ -1026,8 +1023,9 @@ impl Instance {
                 "internal error: no model after initialization",
             );
         };
+        // The model fills the whole output, headers included (`osiris_models::output`); the shell
+        // publishes it as it is.
         let out = &mut self.rt.step_out;
-        clear_shell_metadata(out);
         let result = model.step(
             &StepInput {
                 view: &view,
@@ -1059,9 +1057,6 @@ impl Instance {
                 );
             }
         }
-        let mode = model.mode();
-        let mounting = model.config().mounting.to_osi();
-        enforce_metadata(out, &view, t, mounting, mode, self.rt.cycle_counter);
         let count = out.sensor_data.moving_object.len() + out.sensor_data.stationary_object.len();
 
         let published = self
@@ -1081,7 +1076,7 @@ impl Instance {
         }
         self.rt.count = i32::try_from(count).unwrap_or(i32::MAX);
         self.rt.valid = true;
-        self.rt.cycle_counter += 1;
+        self.rt.frames_published += 1;
         self.rt.last_successful_time_s = t + h;
         self.debug(LogCategory::Osmp, || {
             format!(
@@ -1191,112 +1186,4 @@ impl Instance {
             self.reject(F, &format!("status kind {kind} has no fmi2String value"))
         }
     }
-}
-
-/// Fill what the model left unset in its SensorViewConfiguration request from its configuration:
-/// version, mounting position, field of view, range, update cycle.
-fn fill_request_defaults(request: &mut osi3::SensorViewConfiguration, config: &CommonConfig) {
-    request
-        .version
-        .get_or_insert_with(osiris_proto::interface_version);
-    request
-        .mounting_position
-        .get_or_insert_with(|| config.mounting.to_osi());
-    request
-        .field_of_view_horizontal
-        .get_or_insert(config.fov_horizontal_rad);
-    request
-        .field_of_view_vertical
-        .get_or_insert(config.fov_vertical_rad);
-    request.range.get_or_insert(config.range_m);
-    request
-        .update_cycle_time
-        .get_or_insert_with(|| osiris_proto::timestamp_from_seconds(config.update_cycle_s));
-}
-
-/// Reset the fields [`enforce_metadata`] fills, so a model that reuses `out` without clearing it
-/// cannot leak last frame's metadata.
-fn clear_shell_metadata(out: &mut StepOutput) {
-    let sd = &mut out.sensor_data;
-    sd.version = None;
-    sd.timestamp = None;
-    sd.sensor_id = None;
-    sd.mounting_position = None;
-    let pd = &mut out.perception;
-    pd.osi_version = None;
-    pd.extension_version = None;
-    pd.timestamp = None;
-    pd.sensor_id = None;
-    pd.mounting_position = None;
-    pd.model_mode = None;
-    pd.cycle_counter = None;
-}
-
-/// The frame/metadata contract, applied where the model left fields unset:
-/// * SensorData: `version` 3.8.0; `timestamp` = the SensorView's timestamp, else its ground
-///   truth's, else the communication point; `sensor_id` = the SensorView's; `mounting_position` =
-///   the SensorView's, else the configured mounting; FeatureData `version` and every detection
-///   header's `mounting_position`, `sensor_id` and `measurement_time` likewise.
-/// * PerceptionData: `osi_version`, `extension_version`, `timestamp`, `sensor_id`,
-///   `mounting_position` (as SensorData), `model_mode`, `cycle_counter`.
-fn enforce_metadata(
-    out: &mut StepOutput,
-    view: &osi3::SensorView,
-    t: f64,
-    configured_mounting: osi3::MountingPosition,
-    mode: ModelMode,
-    cycle_counter: u64,
-) {
-    let timestamp = view
-        .timestamp
-        .or_else(|| {
-            view.global_ground_truth
-                .as_ref()
-                .and_then(|gt| gt.timestamp)
-        })
-        .unwrap_or_else(|| osiris_proto::timestamp_from_seconds(t));
-    let mounting = view.mounting_position.unwrap_or(configured_mounting);
-    let sensor_id = view.sensor_id;
-
-    let sd = &mut out.sensor_data;
-    sd.version
-        .get_or_insert_with(osiris_proto::interface_version);
-    sd.timestamp.get_or_insert(timestamp);
-    if sd.sensor_id.is_none() {
-        sd.sensor_id = sensor_id;
-    }
-    sd.mounting_position.get_or_insert(mounting);
-    let sd_timestamp = sd.timestamp.unwrap_or(timestamp);
-    if let Some(fd) = sd.feature_data.as_mut() {
-        fd.version
-            .get_or_insert_with(osiris_proto::interface_version);
-        let headers = fd
-            .radar_sensor
-            .iter_mut()
-            .map(|d| &mut d.header)
-            .chain(fd.lidar_sensor.iter_mut().map(|d| &mut d.header))
-            .chain(fd.ultrasonic_sensor.iter_mut().map(|d| &mut d.header))
-            .chain(fd.camera_sensor.iter_mut().map(|d| &mut d.header));
-        for header in headers {
-            let h = header.get_or_insert_with(Default::default);
-            h.mounting_position.get_or_insert(mounting);
-            h.measurement_time.get_or_insert(sd_timestamp);
-            if h.sensor_id.is_none() {
-                h.sensor_id = sensor_id;
-            }
-        }
-    }
-
-    let pd = &mut out.perception;
-    pd.osi_version
-        .get_or_insert_with(osiris_proto::interface_version);
-    pd.extension_version
-        .get_or_insert_with(|| osiris_proto::PERCEPTION_EXTENSION_VERSION.to_string());
-    pd.timestamp.get_or_insert(sd_timestamp);
-    if pd.sensor_id.is_none() {
-        pd.sensor_id = sd.sensor_id;
-    }
-    pd.mounting_position.get_or_insert(mounting);
-    pd.model_mode.get_or_insert_with(|| mode.name().to_string());
-    pd.cycle_counter.get_or_insert(cycle_counter);
 }

@@ -1197,77 +1197,101 @@ fn granted_config_notes_are_warnings_and_rejections_errors() {
 }
 
 #[test]
-fn shell_fills_the_metadata_the_model_left_unset() {
+fn the_shell_publishes_the_model_output_as_it_is() {
+    // The shell fills nothing: what a model leaves unset stays unset, what it sets stays.
     let i = Inst::new(&FILL);
     i.init();
-    let view = sample_view(1.5, 42);
-    let bytes = view.encode_to_vec();
-    for k in 0..3u64 {
-        i.set_input(&bytes);
-        assert_eq!(i.step(1.5, 0.05), OK);
-        let sd = i.sensor_data().unwrap();
-        assert_eq!(sd.version, Some(osiris_proto::interface_version()));
-        assert_eq!(sd.timestamp, view.timestamp);
-        assert_eq!(sd.sensor_id, view.sensor_id);
-        assert_eq!(sd.mounting_position, view.mounting_position);
-        let fd = sd.feature_data.unwrap();
-        assert_eq!(fd.version, Some(osiris_proto::interface_version()));
-        let radar_header = fd.radar_sensor[0].header.unwrap();
-        assert_eq!(radar_header.mounting_position, view.mounting_position);
-        assert_eq!(radar_header.sensor_id, view.sensor_id);
-        assert_eq!(radar_header.measurement_time, view.timestamp);
-        // The model's own mounting position is kept.
-        assert_eq!(
-            fd.lidar_sensor[0].header.unwrap().mounting_position,
-            Some(osi3::MountingPosition::default())
-        );
-        assert_eq!(i.get_ints(&[vr::integer::COUNT]).1, vec![3]);
-        assert!(i.get_valid().1);
-
-        let pd = i.perception().unwrap();
-        assert_eq!(pd.osi_version, Some(osiris_proto::interface_version()));
-        assert_eq!(
-            pd.extension_version.as_deref(),
-            Some(osiris_proto::PERCEPTION_EXTENSION_VERSION)
-        );
-        assert_eq!(pd.timestamp, view.timestamp);
-        assert_eq!(pd.sensor_id, view.sensor_id);
-        assert_eq!(pd.mounting_position, view.mounting_position);
-        assert_eq!(pd.cycle_counter, Some(k));
-        assert_eq!(pd.model_mode.as_deref(), Some("custom"));
-    }
-
-    // Timestamp falls back to the ground truth's, then to the communication point; the mounting
-    // position to the configured one.
-    let mut v = sample_view(2.0, 42);
-    v.timestamp = None;
-    v.mounting_position = None;
-    let bytes = v.encode_to_vec();
+    let bytes = sample_view(1.5, 42).encode_to_vec();
     i.set_input(&bytes);
-    assert_eq!(i.step(2.0, 0.05), OK);
+    assert_eq!(i.step(1.5, 0.05), OK);
     let sd = i.sensor_data().unwrap();
+    assert_eq!(sd.version, None);
+    assert_eq!(sd.timestamp, None);
+    let fd = sd.feature_data.unwrap();
+    assert_eq!(fd.radar_sensor[0].header, None);
     assert_eq!(
-        sd.timestamp,
-        Some(osiris_proto::timestamp_from_seconds(2.0))
+        fd.lidar_sensor[0].header.unwrap().mounting_position,
+        Some(osi3::MountingPosition::default())
     );
-    assert_eq!(
-        sd.mounting_position,
-        Some(
-            SensorConfig::default_for(SensorKind::Radar)
-                .mounting
-                .to_osi()
-        )
-    );
-    // No ground truth, no timestamp: the communication point.
-    let v = osi3::SensorView {
-        sensor_id: Some(osiris_proto::id(3)),
-        ..Default::default()
-    };
-    let bytes = v.encode_to_vec();
-    i.set_input(&bytes);
-    assert_eq!(i.step(3.25, 0.05), OK);
-    assert_eq!(
-        i.sensor_data().unwrap().timestamp,
-        Some(osiris_proto::timestamp_from_seconds(3.25))
-    );
+    assert_eq!(i.get_ints(&[vr::integer::COUNT]).1, vec![3]);
+    let pd = i.perception().unwrap();
+    assert_eq!(pd.model_mode.as_deref(), Some("custom"));
+    assert_eq!(pd.cycle_counter, None);
+}
+
+#[test]
+fn every_shipped_model_fills_the_frame_metadata() {
+    for mode in ["ideal", "physical"] {
+        let i = Inst::radar();
+        assert_eq!(i.set_strings(&[vr::string::MODE], &[mode]), OK);
+        i.init();
+        let view = sample_view(1.5, 42);
+        let bytes = view.encode_to_vec();
+        for k in 0..2u64 {
+            i.set_input(&bytes);
+            assert_eq!(i.step(1.5, 0.05), OK, "{mode}: {:?}", i.records());
+            let sd = i.sensor_data().unwrap();
+            assert_eq!(sd.version, Some(osiris_proto::interface_version()));
+            assert_eq!(sd.timestamp, view.timestamp);
+            assert_eq!(sd.sensor_id, view.sensor_id);
+            assert_eq!(sd.mounting_position, view.mounting_position);
+            let fd = sd.feature_data.unwrap();
+            assert_eq!(fd.version, Some(osiris_proto::interface_version()));
+            let radar_header = fd.radar_sensor[0].header.unwrap();
+            assert_eq!(radar_header.mounting_position, view.mounting_position);
+            assert_eq!(radar_header.sensor_id, view.sensor_id);
+            assert_eq!(radar_header.measurement_time, view.timestamp);
+            assert_eq!(radar_header.cycle_counter, Some(k));
+            assert_eq!(
+                radar_header.number_of_valid_detections,
+                Some(fd.radar_sensor[0].detection.len() as u32)
+            );
+
+            let pd = i.perception().unwrap();
+            assert_eq!(pd.osi_version, Some(osiris_proto::interface_version()));
+            assert_eq!(
+                pd.extension_version.as_deref(),
+                Some(osiris_proto::PERCEPTION_EXTENSION_VERSION)
+            );
+            assert_eq!(pd.timestamp, view.timestamp);
+            assert_eq!(pd.sensor_id, view.sensor_id);
+            assert_eq!(pd.mounting_position, view.mounting_position);
+            assert_eq!(pd.cycle_counter, Some(k));
+            assert_eq!(pd.model_mode.as_deref(), Some(mode));
+        }
+
+        // The measurement time falls back to the ground truth's timestamp, then to the
+        // communication point; the mounting position to the configured one.
+        let mut v = sample_view(2.0, 42);
+        v.timestamp = None;
+        v.mounting_position = None;
+        let gt_time = osiris_proto::timestamp_from_seconds(2.01);
+        v.global_ground_truth.as_mut().unwrap().timestamp = Some(gt_time);
+        let bytes = v.encode_to_vec();
+        i.set_input(&bytes);
+        assert_eq!(i.step(2.0, 0.05), OK, "{mode}: {:?}", i.records());
+        let sd = i.sensor_data().unwrap();
+        assert_eq!(sd.timestamp, Some(gt_time), "{mode}");
+        let configured = SensorConfig::default_for(SensorKind::Radar)
+            .mounting
+            .to_osi();
+        assert_eq!(sd.mounting_position, Some(configured), "{mode}");
+        assert_eq!(
+            sd.feature_data.unwrap().radar_sensor[0]
+                .header
+                .unwrap()
+                .mounting_position,
+            Some(configured)
+        );
+        v.global_ground_truth.as_mut().unwrap().timestamp = None;
+        let bytes = v.encode_to_vec();
+        i.set_input(&bytes);
+        assert_eq!(i.step(2.25, 0.05), OK);
+        assert_eq!(
+            i.sensor_data().unwrap().timestamp,
+            Some(osiris_proto::timestamp_from_seconds(2.25)),
+            "{mode}"
+        );
+        assert_eq!(i.perception().unwrap().cycle_counter, Some(3), "{mode}");
+    }
 }

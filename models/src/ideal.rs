@@ -73,16 +73,18 @@ use std::collections::HashMap;
 
 use glam::{DMat3, DVec3};
 use osiris_proto::perception;
-use osiris_proto::{
-    PERCEPTION_EXTENSION_VERSION, id, interface_version, osi3, timestamp_from_seconds,
-};
+use osiris_proto::{id, osi3};
 use prost::Message as _;
 
 use crate::frames::{
     SensorFrame, Spherical, moving_object_pose, moving_object_twist, rpy_to_osi,
     stationary_object_pose, vec3_to_osi,
 };
+use crate::handshake::Handshake;
+use crate::output::{FrameHeader, finish};
+use crate::semantics::PoseFrames;
 use crate::sensor::*;
+use crate::world::ViewFrame;
 
 /// Ground-truth speed above which a moving object counts as `MOVING`, m/s.
 pub const MOVING_SPEED_THRESHOLD_M_S: f64 = 0.1;
@@ -476,9 +478,8 @@ struct Track {
 
 /// The ideal object-level sensor model (see the module documentation).
 pub struct IdealSensor {
-    config: CommonConfig,
-    /// Sensor id learned from the granted view configuration (used when a SensorView carries none).
-    sensor_id: Option<u64>,
+    /// The configuration in force and the granted sensor id.
+    handshake: Handshake,
     cycle: u64,
     /// Per (is stationary, GT id): continuous-visibility tracks for age and movement state.
     tracks: HashMap<(bool, u64), Track>,
@@ -490,8 +491,7 @@ impl IdealSensor {
     /// such as the JSON sensor configuration).
     pub fn new(config: impl Into<CommonConfig>) -> Self {
         IdealSensor {
-            config: config.into(),
-            sensor_id: None,
+            handshake: Handshake::new(config.into()),
             cycle: 0,
             tracks: HashMap::new(),
             scratch: Scratch::default(),
@@ -517,7 +517,7 @@ impl IdealSensor {
 
     fn in_view(&self, p: DVec3) -> bool {
         let s = Spherical::from_cartesian(p);
-        let c = &self.config;
+        let c = self.handshake.config();
         s.distance > 0.0
             && s.distance <= c.range_m
             && (c.fov_horizontal_rad >= std::f64::consts::TAU - 1e-9
@@ -526,7 +526,7 @@ impl IdealSensor {
     }
 
     fn existence_probability(&self, fraction: f64) -> f64 {
-        let fmin = self.config.min_visible_fraction;
+        let fmin = self.handshake.config().min_visible_fraction;
         if fmin >= 1.0 {
             1.0
         } else {
@@ -621,7 +621,7 @@ impl IdealSensor {
         scratch.seen.clear();
         scratch.lidar_points.clear();
         let mut grid_tried = 0u64;
-        let range = self.config.range_m;
+        let range = self.handshake.config().range_m;
         for ti in 0..scratch.bodies.len() {
             let b = scratch.bodies[ti];
             if b.id.is_none() || b.contains_sensor || b.dist - b.radius > range {
@@ -683,7 +683,7 @@ impl IdealSensor {
                 n_visible += usize::from(s.visible);
             }
             let fraction = n_visible as f64 / n_in_view as f64;
-            if n_visible == 0 || fraction < self.config.min_visible_fraction {
+            if n_visible == 0 || fraction < self.handshake.config().min_visible_fraction {
                 continue;
             }
             // Detection point: the closest point if seen, else the nearest seen surface sample.
@@ -715,12 +715,6 @@ impl IdealSensor {
         }
         self.scratch = scratch;
         grid_tried
-    }
-
-    fn sensor_id_of(&self, view: &osi3::SensorView) -> Option<osi3::Identifier> {
-        view.sensor_id
-            .filter(|i| i.value.is_some())
-            .or(self.sensor_id.map(id))
     }
 }
 
@@ -795,7 +789,7 @@ impl Recycled {
 
 impl SensorModel for IdealSensor {
     fn kind(&self) -> SensorKind {
-        self.config.kind
+        self.handshake.config().kind
     }
 
     fn mode(&self) -> ModelMode {
@@ -803,56 +797,11 @@ impl SensorModel for IdealSensor {
     }
 
     fn config(&self) -> &CommonConfig {
-        &self.config
+        self.handshake.config()
     }
 
     fn view_configuration_request(&self) -> osi3::SensorViewConfiguration {
-        let c = &self.config;
-        let sensor_id = self.sensor_id.map(id);
-        let mounting = Some(c.mounting.to_osi());
-        let mut req = osi3::SensorViewConfiguration {
-            version: Some(interface_version()),
-            sensor_id,
-            mounting_position: mounting,
-            field_of_view_horizontal: Some(c.fov_horizontal_rad),
-            field_of_view_vertical: Some(c.fov_vertical_rad),
-            range: Some(c.range_m),
-            update_cycle_time: Some(timestamp_from_seconds(c.update_cycle_s)),
-            ..Default::default()
-        };
-        match c.kind {
-            SensorKind::Radar => {
-                req.radar_sensor_view_configuration
-                    .push(osi3::RadarSensorViewConfiguration {
-                        sensor_id,
-                        mounting_position: mounting,
-                        field_of_view_horizontal: Some(c.fov_horizontal_rad),
-                        field_of_view_vertical: Some(c.fov_vertical_rad),
-                        ..Default::default()
-                    })
-            }
-            SensorKind::Lidar => {
-                req.lidar_sensor_view_configuration
-                    .push(osi3::LidarSensorViewConfiguration {
-                        sensor_id,
-                        mounting_position: mounting,
-                        field_of_view_horizontal: Some(c.fov_horizontal_rad),
-                        field_of_view_vertical: Some(c.fov_vertical_rad),
-                        ..Default::default()
-                    })
-            }
-            SensorKind::Camera => {
-                req.camera_sensor_view_configuration
-                    .push(osi3::CameraSensorViewConfiguration {
-                        sensor_id,
-                        mounting_position: mounting,
-                        field_of_view_horizontal: Some(c.fov_horizontal_rad),
-                        field_of_view_vertical: Some(c.fov_vertical_rad),
-                        ..Default::default()
-                    })
-            }
-        }
-        req
+        self.handshake.request()
     }
 
     /// Adopts a granted FoV or range smaller than the configured one (with a note); larger grants,
@@ -861,82 +810,7 @@ impl SensorModel for IdealSensor {
         &mut self,
         granted: &osi3::SensorViewConfiguration,
     ) -> Result<Vec<String>, ModelError> {
-        let mut notes = Vec::new();
-        if let Some(v) = granted.sensor_id.and_then(|i| i.value) {
-            self.sensor_id = Some(v);
-        }
-        // Technology-specific FoVs of the matching kind (the smallest grant wins).
-        let (tech_h, tech_v): (Vec<Option<f64>>, Vec<Option<f64>>) = match self.config.kind {
-            SensorKind::Radar => granted
-                .radar_sensor_view_configuration
-                .iter()
-                .map(|t| (t.field_of_view_horizontal, t.field_of_view_vertical))
-                .unzip(),
-            SensorKind::Lidar => granted
-                .lidar_sensor_view_configuration
-                .iter()
-                .map(|t| (t.field_of_view_horizontal, t.field_of_view_vertical))
-                .unzip(),
-            SensorKind::Camera => granted
-                .camera_sensor_view_configuration
-                .iter()
-                .map(|t| (t.field_of_view_horizontal, t.field_of_view_vertical))
-                .unzip(),
-        };
-        let mut adopt = |name: &str,
-                         current: &mut f64,
-                         values: &mut dyn Iterator<Item = Option<f64>>,
-                         unit: &str| {
-            let mut smallest: Option<f64> = None;
-            for v in values.flatten() {
-                if !(v.is_finite() && v > 0.0) {
-                    notes.push(format!(
-                        "granted {name} {v} is not a positive number; ignored"
-                    ));
-                    continue;
-                }
-                smallest = Some(smallest.map_or(v, |s: f64| s.min(v)));
-            }
-            if let Some(g) = smallest
-                && g < *current
-            {
-                notes.push(format!(
-                    "granted {name} {g:.6} {unit} is smaller than the requested {:.6} {unit}; the model uses the granted value",
-                    *current
-                ));
-                *current = g;
-            }
-        };
-        let c = &mut self.config;
-        adopt(
-            "field_of_view_horizontal",
-            &mut c.fov_horizontal_rad,
-            &mut std::iter::once(granted.field_of_view_horizontal).chain(tech_h),
-            "rad",
-        );
-        adopt(
-            "field_of_view_vertical",
-            &mut c.fov_vertical_rad,
-            &mut std::iter::once(granted.field_of_view_vertical).chain(tech_v),
-            "rad",
-        );
-        adopt(
-            "range",
-            &mut c.range_m,
-            &mut std::iter::once(granted.range),
-            "m",
-        );
-        if let Some(ts) = granted.update_cycle_time.as_ref() {
-            let t = osiris_proto::timestamp_to_seconds(ts);
-            if t > 0.0 && (t - c.update_cycle_s).abs() > 1e-9 {
-                notes.push(format!(
-                    "granted update_cycle_time {t} s differs from the requested {} s; the ideal model \
-                     evaluates every SensorView it gets",
-                    c.update_cycle_s
-                ));
-            }
-        }
-        Ok(notes)
+        Ok(self.handshake.apply(granted)?.notes)
     }
 
     fn step(&mut self, input: &StepInput<'_>, out: &mut StepOutput) -> Result<(), ModelError> {
@@ -948,18 +822,26 @@ impl SensorModel for IdealSensor {
         out.perception.clear();
 
         let view = input.view;
-        let crate::world::ViewFrame {
+        let resolved = ViewFrame::resolve(view, &self.handshake.config().mounting, input.time_s)?;
+        let cycle = self.cycle;
+        self.cycle += 1;
+        let header = FrameHeader::of_view(
+            view,
+            &resolved,
+            self.handshake.sensor_id(),
+            cycle,
+            ModelMode::Ideal,
+        );
+        let sensor_id = header.sensor_id;
+        let ViewFrame {
             gt,
             host_id,
-            host,
             mounting,
             frame,
             timestamp: measurement_time,
-        } = crate::world::ViewFrame::resolve(view, &self.config.mounting, input.time_s)?;
+            ..
+        } = resolved;
         let now_s = osiris_proto::timestamp_to_seconds(&measurement_time);
-        let sensor_id = self.sensor_id_of(view);
-        let cycle = self.cycle;
-        self.cycle += 1;
 
         self.collect_bodies(gt, host_id, &frame);
         let grid_tried = self.evaluate_visibility();
@@ -967,21 +849,8 @@ impl SensorModel for IdealSensor {
         // Tracks: age and movement history per (kind, GT id), continuous visibility only.
         let mut tracks = std::mem::take(&mut self.tracks);
         let prev_cycle = cycle.wrapping_sub(1);
-        let kind = self.config.kind;
+        let kind = self.handshake.config().kind;
         let sd = &mut out.sensor_data;
-        sd.version = Some(interface_version());
-        sd.timestamp = Some(measurement_time);
-        sd.sensor_id = sensor_id;
-        sd.mounting_position = Some(mounting);
-        sd.host_vehicle_location = host.and_then(|h| h.base.clone());
-        sd.last_measurement_time = Some(measurement_time);
-        let entity_header = osi3::DetectedEntityHeader {
-            measurement_time: Some(measurement_time),
-            cycle_counter: Some(cycle),
-            data_qualifier: Some(osi3::detected_entity_header::DataQualifier::Available as i32),
-        };
-        sd.moving_object_header = Some(entity_header);
-        sd.stationary_object_header = Some(entity_header);
 
         let mut moving = rec.moving;
         let mut stationary = rec.stationary;
@@ -1080,28 +949,9 @@ impl SensorModel for IdealSensor {
         sd.moving_object = moving;
         sd.stationary_object = stationary;
 
-        // Raw detections.
-        let det_header = |n: usize| osi3::SensorDetectionHeader {
-            measurement_time: Some(measurement_time),
-            cycle_counter: Some(cycle),
-            mounting_position: Some(mounting),
-            data_qualifier: Some(osi3::sensor_detection_header::DataQualifier::Available as i32),
-            number_of_valid_detections: Some(u32::try_from(n).unwrap_or(u32::MAX)),
-            sensor_id,
-            ..Default::default()
-        };
-        let mut fd = osi3::FeatureData {
-            version: Some(interface_version()),
-            ..Default::default()
-        };
+        // Raw detections (their headers are filled by `output::finish`).
+        let mut fd = osi3::FeatureData::default();
         let p = &mut out.perception;
-        p.osi_version = Some(interface_version());
-        p.extension_version = Some(PERCEPTION_EXTENSION_VERSION.to_string());
-        p.timestamp = Some(measurement_time);
-        p.sensor_id = sensor_id;
-        p.mounting_position = Some(mounting);
-        p.model_mode = Some(ModelMode::Ideal.name().to_string());
-        p.cycle_counter = Some(cycle);
 
         match kind {
             SensorKind::Radar => {
@@ -1142,7 +992,7 @@ impl SensorModel for IdealSensor {
                     });
                 }
                 fd.radar_sensor.push(osi3::RadarDetectionData {
-                    header: Some(det_header(dets.len())),
+                    header: None,
                     detection: dets,
                 });
                 p.radar = Some(perception::RadarPerception {
@@ -1194,7 +1044,7 @@ impl SensorModel for IdealSensor {
                 cloud.wavelength_nm = Some(IDEAL_LIDAR_WAVELENGTH_NM);
                 cloud.pulses_fired = Some(grid_tried);
                 fd.lidar_sensor.push(osi3::LidarDetectionData {
-                    header: Some(det_header(dets.len())),
+                    header: None,
                     detection: dets,
                 });
                 p.lidar = Some(cloud);
@@ -1247,7 +1097,7 @@ impl SensorModel for IdealSensor {
                 }
                 let n_points = u32::try_from(points.len()).unwrap_or(u32::MAX);
                 fd.camera_sensor.push(osi3::CameraDetectionData {
-                    header: Some(det_header(dets.len())),
+                    header: None,
                     specific_header: Some(osi3::CameraDetectionSpecificHeader {
                         number_of_valid_points: Some(n_points),
                     }),
@@ -1258,11 +1108,14 @@ impl SensorModel for IdealSensor {
             }
         }
         out.sensor_data.feature_data = Some(fd);
-        // Pedestrian poses (the split into moving and stationary objects is by construction).
-        crate::semantics::complete(
-            &mut out.sensor_data,
-            gt,
-            &crate::semantics::PoseFrames::new(&frame, &mounting),
+        // Headers, and the pedestrian poses (the split into moving and stationary objects is by
+        // construction).
+        finish(
+            out,
+            &header,
+            view,
+            self.handshake.config(),
+            &PoseFrames::new(&frame, &mounting),
             &|_| None,
         );
         Ok(())
@@ -1271,56 +1124,6 @@ impl SensorModel for IdealSensor {
     fn reset(&mut self) {
         self.cycle = 0;
         self.tracks.clear();
-    }
-}
-
-/// The OSMP view-configuration handshake shared by the physical models: the request is the ideal
-/// model's (field of view, range, update cycle, mounting, sensor-view type), the granted
-/// configuration may narrow it, and the granted sensor id is kept for the output.
-pub struct Handshake {
-    ideal: IdealSensor,
-    sensor_id: Option<u64>,
-}
-
-impl Handshake {
-    pub fn new(config: &CommonConfig) -> Handshake {
-        Handshake {
-            ideal: IdealSensor::new(config.clone()),
-            sensor_id: None,
-        }
-    }
-
-    /// The SensorViewConfiguration to ask the environment simulation for.
-    pub fn request(&self) -> osi3::SensorViewConfiguration {
-        self.ideal.view_configuration_request()
-    }
-
-    /// Accept a granted configuration: the notes to log, and whether the field of view or range
-    /// changed (the configuration in force is then [`Self::config`], and the model re-plans).
-    pub fn apply(
-        &mut self,
-        granted: &osi3::SensorViewConfiguration,
-    ) -> Result<(Vec<String>, bool), ModelError> {
-        let before = self.ideal.config().clone();
-        let notes = self.ideal.apply_view_configuration(granted)?;
-        if let Some(v) = granted.sensor_id.and_then(|i| i.value) {
-            self.sensor_id = Some(v);
-        }
-        let c = self.ideal.config();
-        let changed = c.fov_horizontal_rad != before.fov_horizontal_rad
-            || c.fov_vertical_rad != before.fov_vertical_rad
-            || c.range_m != before.range_m;
-        Ok((notes, changed))
-    }
-
-    /// The configuration in force after the handshake.
-    pub fn config(&self) -> &CommonConfig {
-        self.ideal.config()
-    }
-
-    /// The sensor id granted by the environment simulation.
-    pub fn sensor_id(&self) -> Option<u64> {
-        self.sensor_id
     }
 }
 

@@ -6,8 +6,13 @@
 //! * [`sensor`]: the model trait and what every model is built from ([`CommonConfig`],
 //!   [`SensorSetup`]).
 //! * [`frames`]: OSI frame transforms (global -> host vehicle -> sensor), ISO 8855 axes, mounting.
-//! * [`ideal`]: the ideal object-level reference model shared by all sensor kinds (and the OSMP
-//!   view-configuration handshake of the physical models).
+//! * [`ideal`]: the ideal object-level reference model shared by all sensor kinds.
+//! * [`handshake`]: the OSMP view-configuration handshake every model runs.
+//! * [`output`]: what every model's output carries besides its technology's content (headers,
+//!   OSI semantics, the optional SensorView copy), filled in one place.
+//! * [`physical`]: the physical-sensor skeleton: the loop every physical model shares (world
+//!   update, handshake, cycle counter, seed, output headers); each sensor fills in its
+//!   [`physical::Physics`] (plan, perceive, emit).
 //! * [`input`]: screening of a SensorView (non-finite, implausible, duplicate) before any model sees it.
 //! * [`effects`]: named, switchable physical effects (the mechanism; each module lists its own).
 //! * [`environment`]: scene geometry, materials, sun and sky, weather.
@@ -28,12 +33,13 @@
 //!
 //! 1. `error`, `constants`, `rng`, `special`, `cpu`, `input`: leaves.
 //! 2. `effects`: the switch mechanism ([`effects::Effects`], [`effects::EffectInfo`]).
-//! 3. `frames` → 4. `environment` → 5. `sensor` (trait, [`CommonConfig`]) and `space` →
-//!    6. `world` (scene, space and pose of one step).
+//! 3. `frames` → 4. `environment` → 5. `sensor` (trait, [`CommonConfig`]), `handshake` and
+//!    `space` → 6. `world` (scene, space and pose of one step).
 //! 7. `semantics`, `recognition` (its camera input is its own: `recognition::camera::CameraLens`,
-//!    `PixelObjects`), `ideal` (uses `world`, `semantics`).
-//! 8. `lidar`, `radar`, `camera`: each lists its effects and is built from a
-//!    [`SensorSetup`] of its own parameters.
+//!    `PixelObjects`), then `output` (headers and semantics of every output).
+//! 8. `ideal` and `physical` (the skeleton); `lidar`, `radar`, `camera` each implement
+//!    [`physical::Physics`], list their effects and are built from a [`SensorSetup`] of their own
+//!    parameters.
 //! 9. `registry`: [`SensorConfig`] (with every model's parameters), [`build_sensor`], the
 //!    effect catalogue.
 
@@ -44,9 +50,12 @@ pub mod effects;
 pub mod environment;
 pub mod error;
 pub mod frames;
+pub mod handshake;
 pub mod ideal;
 pub mod input;
 pub mod lidar;
+pub mod output;
+pub mod physical;
 pub mod radar;
 pub mod recognition;
 pub mod registry;

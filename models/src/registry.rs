@@ -4,7 +4,6 @@
 //! [`crate::sensor`] (the trait, [`CommonConfig`], [`SensorSetup`]); this module is the top of the
 //! crate's module graph.
 
-use osiris_proto::osi3;
 use serde::{Deserialize, Serialize};
 
 use crate::camera::{CameraConfig, CameraSensor};
@@ -15,9 +14,7 @@ use crate::frames::Mounting;
 use crate::ideal::IdealSensor;
 use crate::lidar::{LidarConfig, LidarSensor};
 use crate::radar::{RadarConfig, RadarSensor};
-use crate::sensor::{
-    CommonConfig, ModelMode, SensorKind, SensorModel, SensorSetup, StepInput, StepOutput,
-};
+use crate::sensor::{CommonConfig, ModelMode, SensorKind, SensorModel, SensorSetup};
 
 /// Sensor configuration, read from the FMU's `config` parameter (a JSON file in the FMU's
 /// `resources/`, or inline JSON); FMU numeric parameters set by the importer override single keys.
@@ -125,21 +122,33 @@ impl SensorConfig {
         }
     }
 
-    /// Parse a JSON configuration; errors name the line, column and what was expected.
+    /// Parse and check a JSON configuration; errors name the line, column and what was expected,
+    /// or the key whose value is out of range.
     pub fn from_json_str(text: &str) -> Result<SensorConfig, ModelError> {
-        let cfg: SensorConfig = serde_json::from_str(text).map_err(|e| {
+        let cfg = SensorConfig::parse_json(text)?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// Parse a JSON configuration without checking the values (for a caller that changes keys
+    /// before it builds the model: [`build_sensor`] checks once); errors name the line and column.
+    pub fn parse_json(text: &str) -> Result<SensorConfig, ModelError> {
+        serde_json::from_str(text).map_err(|e| {
             ModelError::Config(format!(
                 "JSON line {}, column {}: {e}",
                 e.line(),
                 e.column()
             ))
-        })?;
-        cfg.validate()?;
-        Ok(cfg)
+        })
     }
 
     /// Check ranges of every value.
     pub fn validate(&self) -> Result<(), ModelError> {
+        self.check().map(|_| ())
+    }
+
+    /// [`Self::validate`], returning the effect switches resolved against the [`catalogue`].
+    fn check(&self) -> Result<Effects, ModelError> {
         let positive = |name: &str, v: f64| {
             if v.is_finite() && v > 0.0 {
                 Ok(())
@@ -175,29 +184,24 @@ impl SensorConfig {
             w.validate()
                 .map_err(|e| ModelError::Config(format!("`weather`: {e}")))?;
         }
-        if self.lidar.is_some() && self.kind != SensorKind::Lidar {
-            return Err(ModelError::Config(format!(
-                "`lidar` parameters given for a {} sensor",
-                self.kind.name()
-            )));
-        }
-        if self.radar.is_some() && self.kind != SensorKind::Radar {
-            return Err(ModelError::Config(format!(
-                "`radar` parameters given for a {} sensor",
-                self.kind.name()
-            )));
-        }
-        if self.camera.is_some() && self.kind != SensorKind::Camera {
-            return Err(ModelError::Config(format!(
-                "`camera` parameters given for a {} sensor",
-                self.kind.name()
-            )));
+        // Each model's parameters only under its own kind.
+        for (given, kind) in [
+            (self.lidar.is_some(), SensorKind::Lidar),
+            (self.radar.is_some(), SensorKind::Radar),
+            (self.camera.is_some(), SensorKind::Camera),
+        ] {
+            if given && self.kind != kind {
+                return Err(ModelError::Config(format!(
+                    "`{}` parameters given for a {} sensor",
+                    kind.name(),
+                    self.kind.name()
+                )));
+            }
         }
         if let Some(c) = &self.camera {
             c.resolve()?;
         }
-        let known = catalogue();
-        Effects::with_switches(&known, &self.effects)
+        let effects = Effects::with_switches(&catalogue(), &self.effects)
             .map_err(|e| ModelError::Config(format!("`effects`: {e}")))?;
         if self
             .mounting
@@ -210,7 +214,7 @@ impl SensorConfig {
                 "`mounting` values must be finite".into(),
             ));
         }
-        Ok(())
+        Ok(effects)
     }
     /// The sensor-independent part (what every model reads).
     pub fn common(&self) -> CommonConfig {
@@ -233,9 +237,7 @@ impl SensorConfig {
     /// A physical model's setup: the configuration checked ([`Self::validate`]), its effect
     /// switches resolved against the [`catalogue`] and the model's own parameters (`params`).
     fn setup<P>(&self, params: P) -> Result<SensorSetup<P>, ModelError> {
-        self.validate()?;
-        let effects = Effects::with_switches(&catalogue(), &self.effects)
-            .map_err(|e| ModelError::Config(format!("`effects`: {e}")))?;
+        let effects = self.check()?;
         Ok(SensorSetup {
             common: self.common(),
             params,
@@ -274,57 +276,19 @@ impl TryFrom<SensorConfig> for SensorSetup<CameraConfig> {
     }
 }
 
-/// Build the model a configuration asks for.
+/// Build the model a configuration asks for (the configuration is checked once, here).
 pub fn build_sensor(config: SensorConfig) -> Result<Box<dyn SensorModel>, ModelError> {
-    config.validate()?;
-    let include_sensor_view = config.include_sensor_view;
-    let model: Box<dyn SensorModel> = match config.mode {
-        ModelMode::Ideal => Box::new(IdealSensor::new(config)),
+    Ok(match config.mode {
+        ModelMode::Ideal => {
+            config.validate()?;
+            Box::new(IdealSensor::new(config))
+        }
         ModelMode::Physical => match config.kind {
             SensorKind::Lidar => Box::new(LidarSensor::new(config)?),
             SensorKind::Radar => Box::new(RadarSensor::new(config)?),
             SensorKind::Camera => Box::new(CameraSensor::new(config)?),
         },
-    };
-    Ok(if include_sensor_view {
-        Box::new(WithSensorView(model))
-    } else {
-        model
     })
-}
-
-/// A model whose SensorData also carries a copy of its input SensorView
-/// (`SensorConfig::include_sensor_view`).
-struct WithSensorView(Box<dyn SensorModel>);
-
-impl SensorModel for WithSensorView {
-    fn kind(&self) -> SensorKind {
-        self.0.kind()
-    }
-    fn mode(&self) -> ModelMode {
-        self.0.mode()
-    }
-    fn config(&self) -> &CommonConfig {
-        self.0.config()
-    }
-    fn view_configuration_request(&self) -> osi3::SensorViewConfiguration {
-        self.0.view_configuration_request()
-    }
-    fn apply_view_configuration(
-        &mut self,
-        granted: &osi3::SensorViewConfiguration,
-    ) -> Result<Vec<String>, ModelError> {
-        self.0.apply_view_configuration(granted)
-    }
-    fn step(&mut self, input: &StepInput<'_>, out: &mut StepOutput) -> Result<(), ModelError> {
-        self.0.step(input, out)?;
-        out.sensor_data.sensor_view.clear();
-        out.sensor_data.sensor_view.push(input.view.clone());
-        Ok(())
-    }
-    fn reset(&mut self) {
-        self.0.reset()
-    }
 }
 
 /// Every physical effect osiris declares, sorted by name: the catalogue `osiris effects` prints and

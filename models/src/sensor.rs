@@ -159,7 +159,9 @@ pub trait SensorModel: Send {
         &mut self,
         granted: &osi3::SensorViewConfiguration,
     ) -> Result<Vec<String>, ModelError>;
-    /// Simulate one sensor cycle. `out` is cleared by the model and refilled.
+    /// Simulate one sensor cycle. `out` is cleared by the model and refilled, headers included
+    /// (the FMU shell publishes it as it is): the shipped models fill them with
+    /// `crate::output::finish`, the physical ones through the skeleton of `crate::physical`.
     fn step(&mut self, input: &StepInput<'_>, out: &mut StepOutput) -> Result<(), ModelError>;
     /// Forget all state accumulated over steps (trackers, counters, random state), as after creation.
     fn reset(&mut self);

@@ -26,7 +26,7 @@
 //! in the scene frame except `frame` (global).
 
 use glam::DVec3;
-use osiris_proto::{interface_version, osi3, timestamp_from_seconds};
+use osiris_proto::{osi3, timestamp_from_seconds};
 
 use crate::effects::Effects;
 use crate::environment::material::{MaterialDb, WET_SURFACES};
@@ -141,38 +141,6 @@ impl WorldFrame<'_> {
             rotation,
         )
     }
-
-    /// Fill the header fields every SensorData of this step carries: version, timestamp, sensor id,
-    /// mounting, host vehicle location, last measurement time, and the detected-object headers
-    /// with `cycle_counter`.
-    pub fn fill_sensor_data_header(&self, sd: &mut osi3::SensorData, cycle: u64) {
-        sd.version = Some(interface_version());
-        sd.timestamp = Some(self.timestamp);
-        sd.sensor_id = self.sensor_id;
-        sd.mounting_position = Some(self.mounting);
-        sd.host_vehicle_location = self.host_base.clone();
-        sd.last_measurement_time = Some(self.timestamp);
-        let entity_header = osi3::DetectedEntityHeader {
-            measurement_time: Some(self.timestamp),
-            cycle_counter: Some(cycle),
-            data_qualifier: Some(osi3::detected_entity_header::DataQualifier::Available as i32),
-        };
-        sd.moving_object_header = Some(entity_header);
-        sd.stationary_object_header = Some(entity_header);
-    }
-
-    /// The `SensorDetectionHeader` of feature data of this step.
-    pub fn detection_header(&self, cycle: u64, detections: usize) -> osi3::SensorDetectionHeader {
-        osi3::SensorDetectionHeader {
-            measurement_time: Some(self.timestamp),
-            cycle_counter: Some(cycle),
-            mounting_position: Some(self.mounting),
-            data_qualifier: Some(osi3::sensor_detection_header::DataQualifier::Available as i32),
-            number_of_valid_detections: Some(detections as u32),
-            sensor_id: self.sensor_id,
-            ..Default::default()
-        }
-    }
 }
 
 /// What every model (ideal or physical) reads from a SensorView before anything else: the ground
@@ -234,6 +202,17 @@ impl<'v> ViewFrame<'v> {
             frame,
             timestamp,
         })
+    }
+
+    /// The sensor id of this step: the SensorView's, else `granted` (the handshake's).
+    pub fn sensor_id(
+        &self,
+        view: &osi3::SensorView,
+        granted: Option<u64>,
+    ) -> Option<osi3::Identifier> {
+        view.sensor_id
+            .filter(|i| i.value.is_some())
+            .or(granted.map(osiris_proto::id))
     }
 }
 
@@ -312,6 +291,8 @@ impl SensorWorld {
         time_s: f64,
         sensor_id: Option<u64>,
     ) -> Result<WorldFrame<'w>, ModelError> {
+        let resolved = ViewFrame::resolve(view, &config.mounting, time_s)?;
+        let sensor_id = resolved.sensor_id(view, sensor_id);
         let ViewFrame {
             gt,
             host_id,
@@ -319,7 +300,7 @@ impl SensorWorld {
             mounting,
             frame,
             timestamp,
-        } = ViewFrame::resolve(view, &config.mounting, time_s)?;
+        } = resolved;
 
         // Scene: build once, update afterwards.
         let scene_err = |e: crate::environment::scene::SceneError| {
@@ -410,10 +391,7 @@ impl SensorWorld {
             host_id,
             mounting,
             host_base: host.and_then(|h| h.base.clone()),
-            sensor_id: view
-                .sensor_id
-                .filter(|i| i.value.is_some())
-                .or(sensor_id.map(osiris_proto::id)),
+            sensor_id,
         })
     }
 }

@@ -186,7 +186,7 @@ impl Instance {
             Ok(Published::View { bytes, count }) => {
                 self.rt.valid = true;
                 self.rt.count = i32::try_from(count).unwrap_or(i32::MAX);
-                self.rt.cycle_counter += 1;
+                self.rt.frames_published += 1;
                 self.debug(LogCategory::Osmp, || {
                     format!(
                         "{func}: SensorView at t = {t} s: {bytes} bytes, {count} moving objects"

@@ -337,7 +337,7 @@ pub fn bench_camera_with(
             if f == 0 {
                 build_s = wall;
             } else {
-                per_frame.push((wall, sensor.times));
+                per_frame.push((wall, sensor.times()));
             }
         }
     });

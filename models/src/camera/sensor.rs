@@ -1,7 +1,7 @@
 //! The physical camera as a [`SensorModel`]: configuration, one step of the chain, OSI output.
 
 use glam::DVec3;
-use osiris_proto::{interface_version, osi3, perception};
+use osiris_proto::{osi3, perception};
 use prost::Message as _;
 use serde::{Deserialize, Serialize};
 
@@ -13,16 +13,13 @@ use super::render::{RenderConfig, RenderInput, RenderOutput, Renderer};
 use super::spectral::SpectralConfig;
 use super::{Cfa, RawImage, RgbImage, ShutterTiming, SpectralResponse};
 use crate::effects::Effects;
-use crate::ideal::Handshake;
+use crate::physical::{Cycle, PhysicalSensor, Physics};
 use crate::recognition::camera::{
     CameraRecognition, CameraRecognitionConfig, CameraRecognitionInput,
 };
-use crate::sensor::{
-    CommonConfig, ModelError, ModelMode, SensorKind, SensorModel, SensorSetup, StepInput,
-    StepOutput,
-};
+use crate::sensor::{CommonConfig, ModelError, SensorKind, StepOutput};
 use crate::space::Ray;
-use crate::world::SensorWorld;
+use crate::world::WorldFrame;
 
 /// Sensor presets (array size and pixel pitch; the pixel and HDR defaults follow the preset).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -262,71 +259,42 @@ pub struct StageTimes {
     pub recognition_s: f64,
 }
 
-/// The physical camera model.
-pub struct CameraSensor {
+/// The physical camera model: the shared loop of [`PhysicalSensor`] around the camera's physics
+/// ([`CameraPhysics`]).
+pub type CameraSensor = PhysicalSensor<CameraPhysics>;
+
+/// The camera's physics: spectral rendering → lens → pixel exposures → HDR merge → ISP →
+/// recognition.
+pub struct CameraPhysics {
     camera: CameraConfig,
     effects: Effects,
-    handshake: Handshake,
-    world: SensorWorld,
     chain: CameraChain,
     recognition: CameraRecognition,
-    cycle: u64,
     /// Exposure of the previous frame (auto exposure), s.
     last_exposure_s: Option<f64>,
+    /// Row readout time of the cycle (rolling shutter), s.
+    row_time_s: f64,
+    /// The recognised moving objects of the cycle (swapped into the output by `emit`).
+    moving: Vec<osi3::DetectedMovingObject>,
     buffers: Buffers,
     /// Cost split of the last step.
     pub times: StageTimes,
 }
 
 impl CameraSensor {
-    /// Build from a configuration (`kind: camera`: a `SensorConfig`, checked and resolved by the
-    /// registry, or a [`SensorSetup`]); errors name the bad key.
-    pub fn new(
-        config: impl TryInto<SensorSetup<CameraConfig>, Error = ModelError>,
-    ) -> Result<CameraSensor, ModelError> {
-        Self::from_setup(config.try_into()?)
-    }
-
-    /// Build from a setup (`kind: camera`); errors name the bad key.
-    pub fn from_setup(setup: SensorSetup<CameraConfig>) -> Result<CameraSensor, ModelError> {
-        let SensorSetup {
-            common: config,
-            params: camera,
-            effects,
-        } = setup;
-        if config.kind != SensorKind::Camera {
-            return Err(ModelError::Config(format!(
-                "`kind` must be `camera` for the camera model, got `{}`",
-                config.kind.name()
-            )));
-        }
-        // Environment and space-design switches (wet road, multipath, transmission, ...) reach the
-        // scene and the space through the world.
-        let world = SensorWorld::for_effects(&effects);
-        let chain = CameraChain::plan(&config, &camera, &effects)?;
-        let recognition = CameraRecognition::new(&camera.recognition)?;
-        Ok(CameraSensor {
-            handshake: Handshake::new(&config),
-            camera,
-            effects,
-            world,
-            chain,
-            recognition,
-            cycle: 0,
-            last_exposure_s: None,
-            buffers: Buffers::default(),
-            times: StageTimes::default(),
-        })
-    }
-
     /// The planned chain (lens, pixel, HDR, ISP).
     pub fn chain(&self) -> &CameraChain {
-        &self.chain
+        &self.physics().chain
     }
 
     /// The effects in force.
     pub fn effects(&self) -> &Effects {
-        &self.effects
+        &self.physics().effects
+    }
+
+    /// Cost split of the last step.
+    pub fn times(&self) -> StageTimes {
+        self.physics().times
     }
 }
 
@@ -372,59 +340,43 @@ fn raw_image(
     }
 }
 
-impl SensorModel for CameraSensor {
-    fn kind(&self) -> SensorKind {
-        SensorKind::Camera
+impl Physics for CameraPhysics {
+    const KIND: SensorKind = SensorKind::Camera;
+    type Params = CameraConfig;
+
+    fn plan(
+        config: &CommonConfig,
+        camera: CameraConfig,
+        effects: Effects,
+    ) -> Result<CameraPhysics, ModelError> {
+        let chain = CameraChain::plan(config, &camera, &effects)?;
+        let recognition = CameraRecognition::new(&camera.recognition)?;
+        Ok(CameraPhysics {
+            camera,
+            effects,
+            chain,
+            recognition,
+            last_exposure_s: None,
+            row_time_s: 0.0,
+            moving: Vec::new(),
+            buffers: Buffers::default(),
+            times: StageTimes::default(),
+        })
     }
 
-    fn mode(&self) -> ModelMode {
-        ModelMode::Physical
+    /// The focal length follows the horizontal field of view when the lens configuration has none.
+    fn replan(&mut self, config: &CommonConfig) -> Result<(), ModelError> {
+        self.chain = CameraChain::plan(config, &self.camera, &self.effects)?;
+        Ok(())
     }
 
-    fn config(&self) -> &CommonConfig {
-        self.handshake.config()
-    }
-
-    fn view_configuration_request(&self) -> osi3::SensorViewConfiguration {
-        self.handshake.request()
-    }
-
-    fn apply_view_configuration(
-        &mut self,
-        granted: &osi3::SensorViewConfiguration,
-    ) -> Result<Vec<String>, ModelError> {
-        let (notes, changed) = self.handshake.apply(granted)?;
-        if changed {
-            self.chain = CameraChain::plan(self.handshake.config(), &self.camera, &self.effects)?;
-        }
-        Ok(notes)
-    }
-
-    fn step(&mut self, input: &StepInput<'_>, out: &mut StepOutput) -> Result<(), ModelError> {
-        use perception::camera_image::{ColorFilterArray, Kind};
-        let mut moving = std::mem::take(&mut out.sensor_data.moving_object);
-        let mut camera_out = out.perception.camera.take().unwrap_or_default();
-        out.sensor_data.clear();
-        out.perception.clear();
-        moving.clear();
-        camera_out.image.clear();
-        camera_out.object.clear();
-        camera_out.band_centre_nm.clear();
-
-        let Some(gt) = input.view.global_ground_truth.as_ref() else {
-            return Err(ModelError::Input(
-                "SensorView without global_ground_truth".into(),
-            ));
-        };
-        let cycle = self.cycle;
-        self.cycle += 1;
-        let seed = self.handshake.config().seed.unwrap_or(0);
-        let frame = self.world.update(
-            input.view,
-            self.handshake.config(),
-            input.time_s,
-            self.handshake.sensor_id(),
-        )?;
+    fn perceive(&mut self, cycle: &Cycle<'_>, frame: &WorldFrame<'_>) -> Result<(), ModelError> {
+        let gt =
+            cycle.view.global_ground_truth.as_ref().ok_or_else(|| {
+                ModelError::Input("SensorView without global_ground_truth".into())
+            })?;
+        let seed = cycle.seed;
+        self.moving.clear();
         let chain = &mut self.chain;
         let b = &mut self.buffers;
         let (w, h) = (chain.resolved.width, chain.resolved.height);
@@ -445,7 +397,7 @@ impl SensorModel for CameraSensor {
             chain
                 .resolved
                 .pixel
-                .row_time_s(h, self.handshake.config().update_cycle_s)
+                .row_time_s(h, cycle.config.update_cycle_s)
         } else {
             0.0
         };
@@ -458,7 +410,7 @@ impl SensorModel for CameraSensor {
 
         let t = std::time::Instant::now();
         let rin = RenderInput {
-            frame: &frame,
+            frame,
             rays: chain.lens.ray_directions(),
             width: w,
             height: h,
@@ -466,7 +418,7 @@ impl SensorModel for CameraSensor {
             timing,
             ground_truth: gt,
             seed,
-            cycle,
+            cycle: cycle.index,
         };
         chain.renderer.render(&rin, &mut b.render);
         self.times.render_s = t.elapsed().as_secs_f64();
@@ -492,7 +444,7 @@ impl SensorModel for CameraSensor {
         let temperature_c = chain.resolved.temperature_c;
         for (k, (spec, raw)) in captures.iter().zip(b.captures.iter_mut()).enumerate() {
             let noise_seed =
-                seed ^ (cycle.wrapping_mul(0x9E37_79B9_7F4A_7C15)) ^ ((k as u64 + 1) << 56);
+                seed ^ (cycle.index.wrapping_mul(0x9E37_79B9_7F4A_7C15)) ^ ((k as u64 + 1) << 56);
             chain.pixel.expose(
                 &b.render.radiance,
                 &b.render.flicker,
@@ -530,18 +482,19 @@ impl SensorModel for CameraSensor {
             camera_height_m,
             time_s: frame.time_s,
             seed,
-            cycle,
+            cycle: cycle.index,
         };
-        self.recognition.step(&rec_in, &mut moving, &mut b.divp);
+        self.recognition
+            .step(&rec_in, &mut self.moving, &mut b.divp);
         // The configured maximum detection range (`range_m`) bounds what recognition reports.
-        let range_m = self.handshake.config().range_m;
+        let range_m = cycle.config.range_m;
         b.divp.retain(|o| {
             o.longitudinal_distance_m
                 .unwrap_or(0.0)
                 .hypot(o.lateral_distance_m.unwrap_or(0.0))
                 <= range_m
         });
-        moving.retain(|m| {
+        self.moving.retain(|m| {
             let gid = m
                 .header
                 .as_ref()
@@ -551,6 +504,28 @@ impl SensorModel for CameraSensor {
         });
         self.times.recognition_s = t.elapsed().as_secs_f64();
 
+        self.row_time_s = row_time_s;
+        Ok(())
+    }
+
+    /// The images asked for (`emit`), the recognised objects (DIVP object list in PerceptionData,
+    /// OSI moving objects, one box-shaped camera detection per object). The lists of the previous
+    /// cycle are reused.
+    fn emit(&mut self, _cycle: &Cycle<'_>, _frame: &WorldFrame<'_>, out: &mut StepOutput) {
+        use perception::camera_image::{ColorFilterArray, Kind};
+        let mut camera_out = out.perception.camera.take().unwrap_or_default();
+        // The recognised objects go out; the previous output's list comes back for the next cycle.
+        let mut moving = std::mem::take(&mut out.sensor_data.moving_object);
+        std::mem::swap(&mut moving, &mut self.moving);
+        out.sensor_data.clear();
+        out.perception.clear();
+        camera_out.image.clear();
+        camera_out.object.clear();
+        camera_out.band_centre_nm.clear();
+        let chain = &self.chain;
+        let b = &mut self.buffers;
+        let row_time_s = self.row_time_s;
+        let temperature_c = chain.resolved.temperature_c;
         // Outputs.
         let cfa = match chain.cfa {
             Cfa::Rggb => ColorFilterArray::CfaRggb,
@@ -648,12 +623,9 @@ impl SensorModel for CameraSensor {
                 ..Default::default()
             });
         }
-        let mut camera_header = frame.detection_header(cycle, dets.len());
-        camera_header.number_of_valid_detections = Some(dets.len() as u32);
         let feature_data = osi3::FeatureData {
-            version: Some(interface_version()),
             camera_sensor: vec![osi3::CameraDetectionData {
-                header: Some(camera_header),
+                header: None,
                 detection: dets,
                 point: points,
                 ..Default::default()
@@ -667,34 +639,15 @@ impl SensorModel for CameraSensor {
             .extend_from_slice(&chain.response.bands.centres_nm);
 
         let sd = &mut out.sensor_data;
-        frame.fill_sensor_data_header(sd, cycle);
         sd.moving_object = moving;
         sd.feature_data = Some(feature_data);
-        // The camera has no tracker: tracking id = ground-truth id, and a detection's object_id
-        // (the recognised object's) is that id too (`crate::semantics`, rule 1).
-        crate::semantics::complete(
-            sd,
-            gt,
-            &crate::semantics::PoseFrames::new(&frame.frame, &frame.mounting),
-            &|_| None,
-        );
-        let p = &mut out.perception;
-        p.osi_version = Some(interface_version());
-        p.extension_version = Some(osiris_proto::PERCEPTION_EXTENSION_VERSION.to_string());
-        p.timestamp = Some(frame.timestamp);
-        p.sensor_id = frame.sensor_id;
-        p.mounting_position = Some(frame.mounting);
-        p.model_mode = Some(ModelMode::Physical.name().to_string());
-        p.cycle_counter = Some(cycle);
-        p.camera = Some(camera_out);
-        Ok(())
+        out.perception.camera = Some(camera_out);
     }
 
     fn reset(&mut self) {
-        self.world.reset();
         self.recognition.reset();
         self.chain.isp.reset();
-        self.cycle = 0;
         self.last_exposure_s = None;
+        self.moving.clear();
     }
 }

@@ -54,27 +54,25 @@ use crate::rng::splitmix64;
 use std::sync::Mutex;
 
 use glam::{DMat3, DVec3};
-use osiris_proto::{id, interface_version, osi3, perception};
+use osiris_proto::{id, osi3, perception};
 use prost::Message as _;
 use rand::SeedableRng;
 use rand::rngs::SmallRng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::constants::SPEED_OF_LIGHT_M_S;
 use crate::effects::{EffectInfo, Effects};
 use crate::environment::material::{self, MaterialDb, MaterialEffects};
 use crate::environment::scene::{Scene, StaticElement};
 use crate::environment::sun;
 use crate::frames::{Pose, Spherical};
-use crate::ideal::Handshake;
+use crate::physical::{Cycle, PhysicalSensor, Physics, ego_state};
+use crate::recognition::LidarPoint;
 use crate::recognition::lidar::LidarRecognition;
-use crate::recognition::{EgoState, LidarPoint};
-use crate::sensor::{
-    CommonConfig, ModelError, ModelMode, SensorKind, SensorModel, SensorSetup, StepInput,
-    StepOutput,
-};
+use crate::sensor::{CommonConfig, ModelError, SensorKind, StepOutput};
 use crate::space::{Hit, Ray, Space};
-use crate::world::SensorWorld;
+use crate::world::WorldFrame;
 use detection::{Detector, Echo, IntensityCalibration, Return};
 use scan::{Firing, Preset, ScanPattern};
 use signal::{SignalConfig, SignalPlan, SolarPlan};
@@ -372,6 +370,11 @@ impl LidarEngine {
         &self.sub_rays
     }
 
+    /// The points of the last frame, per chunk of [`CHUNK_PULSES`] firings, in plan order.
+    pub fn points(&self) -> &[Vec<PointRecord>] {
+        &self.chunks
+    }
+
     /// Simulate one frame; the points come back per chunk of [`CHUNK_PULSES`] firings, in plan
     /// order (each point carries its firing time).
     pub fn run(&mut self, input: &FrameInput<'_>) -> &[Vec<PointRecord>] {
@@ -622,61 +625,25 @@ fn surface_key(hit: &Hit, scene: Option<&Scene>) -> (u64, u64) {
     }
 }
 
-/// The physical LiDAR sensor model.
-pub struct LidarSensor {
+/// The physical LiDAR sensor model: the shared loop of [`PhysicalSensor`] around the LiDAR's
+/// physics ([`LidarPhysics`]).
+pub type LidarSensor = PhysicalSensor<LidarPhysics>;
+
+/// The LiDAR's physics: scan → beams → propagation → detection → point cloud → recognition.
+pub struct LidarPhysics {
     lidar: LidarConfig,
     resolved: Resolved,
     effects: Effects,
-    handshake: Handshake,
-    world: SensorWorld,
     engine: LidarEngine,
     recognition: LidarRecognition,
-    cycle: u64,
+    /// The cycle's points as recognition input, in output order.
     points: Vec<LidarPoint>,
+    /// The recognised moving objects of the cycle (swapped into the output by `emit`).
+    moving: Vec<osi3::DetectedMovingObject>,
 }
 
-impl LidarSensor {
-    /// Build from a configuration (`kind: lidar`: a `SensorConfig`, checked and resolved by the
-    /// registry, or a [`SensorSetup`]); errors name the bad key.
-    pub fn new(
-        config: impl TryInto<SensorSetup<LidarConfig>, Error = ModelError>,
-    ) -> Result<LidarSensor, ModelError> {
-        Self::from_setup(config.try_into()?)
-    }
-
-    /// Build from a setup (`kind: lidar`); errors name the bad key.
-    pub fn from_setup(setup: SensorSetup<LidarConfig>) -> Result<LidarSensor, ModelError> {
-        let SensorSetup {
-            common: config,
-            params: lidar,
-            effects,
-        } = setup;
-        if config.kind != SensorKind::Lidar {
-            return Err(ModelError::Config(format!(
-                "`kind` must be `lidar` for the LiDAR model, got `{}`",
-                config.kind.name()
-            )));
-        }
-        let resolved = lidar.resolve()?;
-        // Environment and space-design switches (wet road, multipath, transmission, ...) reach the
-        // scene and the space through the world.
-        let world = SensorWorld::for_effects(&effects);
-        let engine = Self::plan(&config, &lidar, &resolved, &effects)?;
-        let recognition = LidarRecognition::new(&lidar.recognition)?;
-        Ok(LidarSensor {
-            handshake: Handshake::new(&config),
-            lidar,
-            resolved,
-            effects,
-            world,
-            engine,
-            recognition,
-            cycle: 0,
-            points: Vec::new(),
-        })
-    }
-
-    fn plan(
+impl LidarPhysics {
+    fn engine(
         config: &CommonConfig,
         lidar: &LidarConfig,
         resolved: &Resolved,
@@ -693,93 +660,43 @@ impl LidarSensor {
             config.seed.unwrap_or(0),
         )
     }
-
-    /// The values in effect (preset defaults and overrides).
-    pub fn resolved(&self) -> &Resolved {
-        &self.resolved
-    }
-
-    /// The firings of one cycle.
-    pub fn firings(&self) -> &[Firing] {
-        self.engine.firings()
-    }
-
-    /// The LiDAR configuration in effect.
-    pub fn lidar_config(&self) -> &LidarConfig {
-        &self.lidar
-    }
 }
 
-impl SensorModel for LidarSensor {
-    fn kind(&self) -> SensorKind {
-        SensorKind::Lidar
+impl Physics for LidarPhysics {
+    const KIND: SensorKind = SensorKind::Lidar;
+    type Params = LidarConfig;
+
+    fn plan(
+        config: &CommonConfig,
+        lidar: LidarConfig,
+        effects: Effects,
+    ) -> Result<LidarPhysics, ModelError> {
+        let resolved = lidar.resolve()?;
+        let engine = Self::engine(config, &lidar, &resolved, &effects)?;
+        let recognition = LidarRecognition::new(&lidar.recognition)?;
+        Ok(LidarPhysics {
+            lidar,
+            resolved,
+            effects,
+            engine,
+            recognition,
+            points: Vec::new(),
+            moving: Vec::new(),
+        })
     }
 
-    fn mode(&self) -> ModelMode {
-        ModelMode::Physical
+    /// The scan plan and the ray length follow the field of view and range.
+    fn replan(&mut self, config: &CommonConfig) -> Result<(), ModelError> {
+        self.engine = Self::engine(config, &self.lidar, &self.resolved, &self.effects)?;
+        Ok(())
     }
 
-    fn config(&self) -> &CommonConfig {
-        self.handshake.config()
-    }
-
-    fn view_configuration_request(&self) -> osi3::SensorViewConfiguration {
-        self.handshake.request()
-    }
-
-    fn apply_view_configuration(
-        &mut self,
-        granted: &osi3::SensorViewConfiguration,
-    ) -> Result<Vec<String>, ModelError> {
-        let (notes, changed) = self.handshake.apply(granted)?;
-        if changed {
-            self.engine = Self::plan(
-                self.handshake.config(),
-                &self.lidar,
-                &self.resolved,
-                &self.effects,
-            )?;
-        }
-        Ok(notes)
-    }
-
-    fn step(&mut self, input: &StepInput<'_>, out: &mut StepOutput) -> Result<(), ModelError> {
-        // Reuse the previous output's buffers.
-        let mut cloud = out.perception.lidar.take().unwrap_or_default();
-        let mut dets = out
-            .sensor_data
-            .feature_data
-            .as_mut()
-            .and_then(|fd| fd.lidar_sensor.first_mut())
-            .map(|x| std::mem::take(&mut x.detection))
-            .unwrap_or_default();
-        let mut moving = std::mem::take(&mut out.sensor_data.moving_object);
-        out.sensor_data.clear();
-        out.perception.clear();
-        cloud.x_m.clear();
-        cloud.y_m.clear();
-        cloud.z_m.clear();
-        cloud.intensity.clear();
-        cloud.timestamp_ns.clear();
-        cloud.channel.clear();
-        cloud.echo.clear();
-        cloud.object_id.clear();
-        dets.clear();
-        moving.clear();
-
-        let gt_env = input
+    fn perceive(&mut self, cycle: &Cycle<'_>, frame: &WorldFrame<'_>) -> Result<(), ModelError> {
+        let gt_env = cycle
             .view
             .global_ground_truth
             .as_ref()
-            .and_then(|g| g.environmental_conditions.clone());
-        let cycle = self.cycle;
-        self.cycle += 1;
-        let frame = self.world.update(
-            input.view,
-            self.handshake.config(),
-            input.time_s,
-            self.handshake.sensor_id(),
-        )?;
+            .and_then(|g| g.environmental_conditions.as_ref());
         let signal = SignalPlan::new(
             &self.lidar.signal,
             &self.effects,
@@ -789,7 +706,7 @@ impl SensorModel for LidarSensor {
         let solar = if self.effects.is_on(&signal::SOLAR_BACKGROUND) {
             SolarPlan::new(
                 &self.lidar.signal,
-                sun::sun_direction(gt_env.as_ref()),
+                sun::sun_direction(gt_env),
                 self.resolved.wavelength_nm,
             )
         } else {
@@ -804,12 +721,50 @@ impl SensorModel for LidarSensor {
             angular_velocity_rad_s: frame.sensor_angular_velocity_rad_s,
             signal,
             solar,
-            cycle,
+            cycle: cycle.index,
         };
-        let pulses = self.engine.firings().len() as u64;
         let chunks = self.engine.run(&fi);
-        let t0 = osiris_proto::timestamp_to_nanos(&frame.timestamp);
         self.points.clear();
+        self.points
+            .extend(chunks.iter().flatten().map(|p| LidarPoint {
+                position_m: p.position_m,
+                intensity: p.intensity,
+                object_id: p.object_id,
+            }));
+        self.moving.clear();
+        self.recognition
+            .step(&ego_state(frame), &self.points, &mut self.moving);
+        Ok(())
+    }
+
+    /// The point cloud (`PerceptionData.lidar`), one OSI LiDAR detection per point under the
+    /// detected object it belongs to (from recognition; the ground truth stays in the cloud's
+    /// `object_id`), and the recognised moving objects. The lists of the previous cycle are reused.
+    fn emit(&mut self, _cycle: &Cycle<'_>, frame: &WorldFrame<'_>, out: &mut StepOutput) {
+        let mut cloud = out.perception.lidar.take().unwrap_or_default();
+        let mut dets = out
+            .sensor_data
+            .feature_data
+            .as_mut()
+            .and_then(|fd| fd.lidar_sensor.first_mut())
+            .map(|x| std::mem::take(&mut x.detection))
+            .unwrap_or_default();
+        // The recognised objects go out; the previous output's list comes back for the next cycle.
+        let mut moving = std::mem::take(&mut out.sensor_data.moving_object);
+        std::mem::swap(&mut moving, &mut self.moving);
+        out.sensor_data.clear();
+        out.perception.clear();
+        cloud.x_m.clear();
+        cloud.y_m.clear();
+        cloud.z_m.clear();
+        cloud.intensity.clear();
+        cloud.timestamp_ns.clear();
+        cloud.channel.clear();
+        cloud.echo.clear();
+        cloud.object_id.clear();
+        dets.clear();
+
+        let t0 = osiris_proto::timestamp_to_nanos(&frame.timestamp);
         let u8_scale = self.lidar.detector.intensity_scale == detection::IntensityScale::U8;
         // OSI intensity is in %: the u8 byte's diffuse part 0–100 is already %; its retro-reflector
         // codes 101–255 are reported as 100 %.
@@ -820,7 +775,8 @@ impl SensorModel for LidarSensor {
                 f64::from(v)
             }
         };
-        for p in chunks.iter().flatten() {
+        let objects = self.recognition.detection_objects();
+        for (i, p) in self.engine.points().iter().flatten().enumerate() {
             cloud.x_m.push(p.position_m.x as f32);
             cloud.y_m.push(p.position_m.y as f32);
             cloud.z_m.push(p.position_m.z as f32);
@@ -831,20 +787,13 @@ impl SensorModel for LidarSensor {
             cloud.object_id.push(p.object_id);
             dets.push(osi3::LidarDetection {
                 existence_probability: Some(1.0),
-                // The detected object it belongs to, set after recognition (OSI 3.8.0 semantics,
-                // `crate::semantics`); the ground truth stays in the point cloud's `object_id`.
-                object_id: None,
+                object_id: objects.get(i).copied().flatten().map(id),
                 position: Some(Spherical::from_cartesian(p.position_m).to_osi()),
                 intensity: Some(pct(p.intensity)),
                 // OSI `echo_pulse_width` is a length (m): c·τ/2 of the echo's width in time.
-                echo_pulse_width: Some(f64::from(p.pulse_width_s) * 1e9 * 0.299_792_458 / 2.0),
+                echo_pulse_width: Some(f64::from(p.pulse_width_s) * SPEED_OF_LIGHT_M_S / 2.0),
                 beam_id: Some(id(u64::from(p.channel))),
                 ..Default::default()
-            });
-            self.points.push(LidarPoint {
-                position_m: p.position_m,
-                intensity: p.intensity,
-                object_id: p.object_id,
             });
         }
         cloud.intensity_scale = Some(if u8_scale {
@@ -853,56 +802,48 @@ impl SensorModel for LidarSensor {
             perception::lidar_perception::IntensityScale::Percent
         } as i32);
         cloud.wavelength_nm = Some(self.resolved.wavelength_nm);
-        cloud.pulses_fired = Some(pulses);
-
-        let ego = EgoState {
-            time_s: frame.time_s,
-            sensor_pose: frame.sensor_pose,
-            sensor_velocity_m_s: frame.sensor_velocity_m_s,
-            sensor_angular_velocity_rad_s: frame.sensor_angular_velocity_rad_s,
-        };
-        self.recognition.step(&ego, &self.points, &mut moving);
-        for (d, o) in dets.iter_mut().zip(self.recognition.detection_objects()) {
-            d.object_id = o.map(id);
-        }
+        cloud.pulses_fired = Some(self.engine.firings().len() as u64);
 
         let sd = &mut out.sensor_data;
-        frame.fill_sensor_data_header(sd, cycle);
-        let header = frame.detection_header(cycle, dets.len());
         sd.feature_data = Some(osi3::FeatureData {
-            version: Some(interface_version()),
             lidar_sensor: vec![osi3::LidarDetectionData {
-                header: Some(header),
+                header: None,
                 detection: dets,
             }],
             ..Default::default()
         });
         sd.moving_object = moving;
-        if let Some(gt) = input.view.global_ground_truth.as_ref() {
-            let reported = self.recognition.reported_ground_truth();
-            crate::semantics::complete(
-                sd,
-                gt,
-                &crate::semantics::PoseFrames::new(&frame.frame, &frame.mounting),
-                &|t| reported.iter().find(|r| r.0 == t).and_then(|r| r.1),
-            );
-        }
-        let p = &mut out.perception;
-        p.osi_version = Some(interface_version());
-        p.extension_version = Some(osiris_proto::PERCEPTION_EXTENSION_VERSION.to_string());
-        p.timestamp = Some(frame.timestamp);
-        p.sensor_id = frame.sensor_id;
-        p.mounting_position = Some(frame.mounting);
-        p.model_mode = Some(ModelMode::Physical.name().to_string());
-        p.cycle_counter = Some(cycle);
-        p.lidar = Some(cloud);
-        Ok(())
+        out.perception.lidar = Some(cloud);
+    }
+
+    fn last_truth_of(&self, tracking_id: u64) -> Option<u64> {
+        self.recognition
+            .reported_ground_truth()
+            .iter()
+            .find(|r| r.0 == tracking_id)
+            .and_then(|r| r.1)
     }
 
     fn reset(&mut self) {
-        self.world.reset();
         self.recognition.reset();
-        self.cycle = 0;
         self.points.clear();
+        self.moving.clear();
+    }
+}
+
+impl LidarSensor {
+    /// The values in effect (preset defaults and overrides).
+    pub fn resolved(&self) -> &Resolved {
+        &self.physics().resolved
+    }
+
+    /// The firings of one cycle.
+    pub fn firings(&self) -> &[Firing] {
+        self.physics().engine.firings()
+    }
+
+    /// The LiDAR configuration in effect.
+    pub fn lidar_config(&self) -> &LidarConfig {
+        &self.physics().lidar
     }
 }

@@ -10,7 +10,8 @@
 //!   impairments, windowed range / Doppler FFTs, the range-Doppler map.
 //! * [`processing`]: processing parameters and thresholds; CFAR, peak interpolation, velocity
 //!   disambiguation and angle estimation (further `impl` blocks of the baseband's chain).
-//! * `export`: the step's outputs (OSI SensorData, the PerceptionData radar block).
+//! * `export`: the cycle's content of SensorData (detections, moving objects) and of the
+//!   PerceptionData radar block; the shared loop is `crate::physical`.
 
 pub mod antenna;
 pub mod baseband;
@@ -26,14 +27,11 @@ use osiris_proto::osi3;
 use serde::{Deserialize, Serialize};
 
 use crate::effects::{EffectInfo, Effects};
-use crate::ideal::Handshake;
+use crate::physical::{Cycle, PhysicalSensor, Physics, ego_state};
+use crate::recognition::RadarDetection;
 use crate::recognition::radar::RadarRecognition;
-use crate::recognition::{EgoState, RadarDetection};
-use crate::sensor::{
-    CommonConfig, ModelError, ModelMode, SensorKind, SensorModel, SensorSetup, StepInput,
-    StepOutput,
-};
-use crate::world::SensorWorld;
+use crate::sensor::{CommonConfig, ModelError, SensorKind, StepInput, StepOutput};
+use crate::world::WorldFrame;
 
 use antenna::Antennas;
 use baseband::{ChainDetection, RadarChain};
@@ -96,49 +94,35 @@ pub fn effects() -> Vec<EffectInfo> {
     [propagation::EFFECTS, antenna::EFFECTS, baseband::EFFECTS].concat()
 }
 
-/// The physical radar sensor model: world → propagation paths → baseband chain → detections →
-/// recognition.
-pub struct RadarSensor {
+/// The physical radar sensor model: the shared loop of [`PhysicalSensor`] around the radar's
+/// physics ([`RadarPhysics`]).
+pub type RadarSensor = PhysicalSensor<RadarPhysics>;
+
+/// The radar's physics: world → propagation paths → baseband chain → detections → recognition.
+pub struct RadarPhysics {
     radar: RadarConfig,
     effects: Effects,
-    handshake: Handshake,
-    world: SensorWorld,
     propagator: Propagator,
     antennas: Antennas,
     chain: RadarChain,
     recognition: RadarRecognition,
-    cycle: u64,
-    seed: u64,
     paths: Vec<PathReturn>,
     chain_out: Vec<ChainDetection>,
+    /// The chain's detections as recognition input (with their RCS), in chain order.
     detections: Vec<RadarDetection>,
+    /// The recognised moving objects of the cycle (swapped into the output by `emit`).
+    moving: Vec<osi3::DetectedMovingObject>,
 }
 
-impl RadarSensor {
-    /// Build from a configuration (`kind: radar`: a `SensorConfig`, checked and resolved by the
-    /// registry, or a [`SensorSetup`]); errors name the bad key.
-    pub fn new(
-        config: impl TryInto<SensorSetup<RadarConfig>, Error = ModelError>,
-    ) -> Result<RadarSensor, ModelError> {
-        Self::from_setup(config.try_into()?)
-    }
+impl Physics for RadarPhysics {
+    const KIND: SensorKind = SensorKind::Radar;
+    type Params = RadarConfig;
 
-    /// Build from a setup (`kind: radar`); errors name the bad key.
-    pub fn from_setup(setup: SensorSetup<RadarConfig>) -> Result<RadarSensor, ModelError> {
-        let SensorSetup {
-            common: config,
-            params: radar,
-            effects,
-        } = setup;
-        if config.kind != SensorKind::Radar {
-            return Err(ModelError::Config(format!(
-                "`kind` must be `radar` for the radar model, got `{}`",
-                config.kind.name()
-            )));
-        }
-        // Environment and space-design switches (wet road, multipath, transmission, ...) reach the
-        // scene and the space through the world.
-        let world = SensorWorld::for_effects(&effects);
+    fn plan(
+        _config: &CommonConfig,
+        radar: RadarConfig,
+        effects: Effects,
+    ) -> Result<RadarPhysics, ModelError> {
         radar.front_end.validate()?;
         let propagator = Propagator::new(
             &radar.propagation,
@@ -154,66 +138,115 @@ impl RadarSensor {
             &effects,
         )?;
         let recognition = RadarRecognition::new(&radar.recognition)?;
-        Ok(RadarSensor {
-            handshake: Handshake::new(&config),
+        Ok(RadarPhysics {
             antennas: Antennas::new(&radar.front_end, &effects),
-            seed: config.seed.unwrap_or(0),
             radar,
             effects,
-            world,
             propagator,
             chain,
             recognition,
-            cycle: 0,
             paths: Vec::new(),
             chain_out: Vec::new(),
             detections: Vec::new(),
+            moving: Vec::new(),
         })
     }
 
+    /// The field of view and range are applied per cycle (propagation and the chain's angle
+    /// gate read them from the configuration in force): nothing to re-plan.
+    fn replan(&mut self, _config: &CommonConfig) -> Result<(), ModelError> {
+        Ok(())
+    }
+
+    fn perceive(&mut self, cycle: &Cycle<'_>, frame: &WorldFrame<'_>) -> Result<(), ModelError> {
+        let cfg = cycle.config;
+        // Propagation paths → baseband chain → detections.
+        self.propagator.compute(
+            frame,
+            (cfg.fov_horizontal_rad, cfg.fov_vertical_rad),
+            cfg.range_m,
+            &mut self.paths,
+        );
+        self.chain_out.clear();
+        let seed = crate::rng::splitmix64(cycle.seed ^ crate::rng::splitmix64(cycle.index));
+        self.chain
+            .set_field_of_view(cfg.fov_horizontal_rad, cfg.fov_vertical_rad);
+        self.chain.run(&self.paths, seed, &mut self.chain_out);
+        self.detections.clear();
+        self.detections
+            .extend(self.chain_out.iter().map(|d| RadarDetection {
+                range_m: d.range_m,
+                azimuth_rad: d.azimuth_rad,
+                elevation_rad: d.elevation_rad,
+                range_rate_m_s: d.range_rate_m_s,
+                snr_db: d.snr_db,
+                rcs_dbsm: rcs_estimate_dbsm(&self.radar, &self.antennas, d),
+                object_id: d.object_id,
+            }));
+        // Recognise: detections → moving objects.
+        self.moving.clear();
+        self.recognition
+            .step(&ego_state(frame), &self.detections, &mut self.moving);
+        Ok(())
+    }
+
+    fn emit(&mut self, _cycle: &Cycle<'_>, _frame: &WorldFrame<'_>, out: &mut StepOutput) {
+        export::emit(self, out);
+    }
+
+    fn last_truth_of(&self, tracking_id: u64) -> Option<u64> {
+        self.recognition
+            .reported_ground_truth()
+            .iter()
+            .find(|r| r.0 == tracking_id)
+            .and_then(|r| r.1)
+    }
+
+    fn reset(&mut self) {
+        self.recognition.reset();
+        self.paths.clear();
+        self.chain_out.clear();
+        self.detections.clear();
+        self.moving.clear();
+    }
+}
+
+impl RadarSensor {
     /// The radar configuration in effect.
     pub fn radar_config(&self) -> &RadarConfig {
-        &self.radar
+        &self.physics().radar
     }
 
     /// The effect switches in effect.
     pub fn effects(&self) -> &Effects {
-        &self.effects
+        &self.physics().effects
     }
 
     /// The propagation paths of the last step (sensor frame angles).
     pub fn last_paths(&self) -> &[PathReturn] {
-        &self.paths
+        &self.physics().paths
     }
 
     /// The chain detections of the last step.
     pub fn last_chain_detections(&self) -> &[ChainDetection] {
-        &self.chain_out
+        &self.physics().chain_out
     }
 
     /// Ray tubes launched in the last step.
     pub fn last_tube_count(&self) -> usize {
-        self.propagator.last_tube_count
+        self.physics().propagator.last_tube_count
     }
 
     /// Only the propagation of one step: the paths of `view` (no baseband, no outputs).
     pub fn propagate(&mut self, input: &StepInput<'_>) -> Result<&[PathReturn], ModelError> {
-        let frame = self.world.update(
-            input.view,
-            self.handshake.config(),
-            input.time_s,
-            self.handshake.sensor_id(),
-        )?;
-        self.propagator.compute(
+        let (frame, config, physics) = self.world_frame(input)?;
+        physics.propagator.compute(
             &frame,
-            (
-                self.handshake.config().fov_horizontal_rad,
-                self.handshake.config().fov_vertical_rad,
-            ),
-            self.handshake.config().range_m,
-            &mut self.paths,
+            (config.fov_horizontal_rad, config.fov_vertical_rad),
+            config.range_m,
+            &mut physics.paths,
         );
-        Ok(&self.paths)
+        Ok(&physics.paths)
     }
 
     /// RCS estimate of a detection, dBsm: the radar equation inverted at the detected range with
@@ -223,7 +256,8 @@ impl RadarSensor {
     /// `processing::ProcessingConfig::field_of_view_gate`), so the gain compensated is the main
     /// lobe's.
     pub fn rcs_estimate_dbsm(&self, d: &ChainDetection) -> f64 {
-        rcs_estimate_dbsm(&self.radar, &self.antennas, d)
+        let p = self.physics();
+        rcs_estimate_dbsm(&p.radar, &p.antennas, d)
     }
 }
 
@@ -237,107 +271,4 @@ fn rcs_estimate_dbsm(radar: &RadarConfig, antennas: &Antennas, d: &ChainDetectio
         + 30.0 * (4.0 * std::f64::consts::PI).log10()
         + 40.0 * d.range_m.max(1e-3).log10()
         + fe.system_losses_db
-}
-
-impl SensorModel for RadarSensor {
-    fn kind(&self) -> SensorKind {
-        SensorKind::Radar
-    }
-
-    fn mode(&self) -> ModelMode {
-        ModelMode::Physical
-    }
-
-    fn config(&self) -> &CommonConfig {
-        self.handshake.config()
-    }
-
-    fn view_configuration_request(&self) -> osi3::SensorViewConfiguration {
-        self.handshake.request()
-    }
-
-    fn apply_view_configuration(
-        &mut self,
-        granted: &osi3::SensorViewConfiguration,
-    ) -> Result<Vec<String>, ModelError> {
-        let (notes, _) = self.handshake.apply(granted)?;
-        Ok(notes)
-    }
-
-    fn step(&mut self, input: &StepInput<'_>, out: &mut StepOutput) -> Result<(), ModelError> {
-        let mut bufs = export::Buffers::take(out);
-
-        // Plan: the world of this step.
-        let cycle = self.cycle;
-        self.cycle += 1;
-        let frame = self.world.update(
-            input.view,
-            self.handshake.config(),
-            input.time_s,
-            self.handshake.sensor_id(),
-        )?;
-        // Perceive: propagation paths → baseband chain → detections.
-        self.propagator.compute(
-            &frame,
-            (
-                self.handshake.config().fov_horizontal_rad,
-                self.handshake.config().fov_vertical_rad,
-            ),
-            self.handshake.config().range_m,
-            &mut self.paths,
-        );
-        self.chain_out.clear();
-        let seed = crate::rng::splitmix64(self.seed ^ crate::rng::splitmix64(cycle));
-        let cfg = self.handshake.config();
-        self.chain
-            .set_field_of_view(cfg.fov_horizontal_rad, cfg.fov_vertical_rad);
-        self.chain.run(&self.paths, seed, &mut self.chain_out);
-        export::detections(
-            &self.radar,
-            &self.antennas,
-            &self.chain_out,
-            &mut bufs,
-            &mut self.detections,
-        );
-
-        // Recognise: detections → moving objects.
-        let ego = EgoState {
-            time_s: frame.time_s,
-            sensor_pose: frame.sensor_pose,
-            sensor_velocity_m_s: frame.sensor_velocity_m_s,
-            sensor_angular_velocity_rad_s: frame.sensor_angular_velocity_rad_s,
-        };
-        self.recognition
-            .step(&ego, &self.detections, &mut bufs.moving);
-        export::detected_objects(&mut bufs.detections, self.recognition.detection_objects());
-
-        // Export: SensorData and PerceptionData.
-        export::sensor_data(
-            &mut out.sensor_data,
-            &frame,
-            cycle,
-            bufs.detections,
-            bufs.moving,
-            input.view.global_ground_truth.as_ref(),
-            self.recognition.reported_ground_truth(),
-        );
-        export::perception(
-            &mut out.perception,
-            &frame,
-            cycle,
-            bufs.peaks,
-            &self.radar,
-            &self.chain,
-        );
-        Ok(())
-    }
-
-    fn reset(&mut self) {
-        self.world.reset();
-        self.recognition.reset();
-        self.cycle = 0;
-        self.paths.clear();
-        self.chain_out.clear();
-        self.detections.clear();
-    }
 }
