@@ -77,7 +77,8 @@ impl CoherentReceiver {
             lo_power_w: config.lo_power_w,
             window_s: config.samples_per_chirp as f64 / config.adc_rate_hz,
             receiver_psd: config.receiver_noise_a_per_sqrt_hz.powi(2),
-            rin_residual_per_hz: 10f64.powf((config.lo_rin_db_per_hz - config.balanced_cmrr_db) / 10.0),
+            rin_residual_per_hz: 10f64
+                .powf((config.lo_rin_db_per_hz - config.balanced_cmrr_db) / 10.0),
             photon_energy_j,
             quantum_efficiency: config.quantum_efficiency,
             linewidth_hz: config.linewidth_hz,
@@ -132,6 +133,8 @@ impl CoherentReceiver {
 }
 
 #[cfg(test)]
+// Tests vary one or two keys of the preset at a time.
+#[allow(clippy::field_reassign_with_default)]
 mod tests {
     use super::*;
 

@@ -269,7 +269,10 @@ mod tests {
         };
         bad(&|c| c.samples_per_chirp = 1000, "samples_per_chirp");
         bad(&|c| c.samples_per_chirp = 8192, "chirp_time_s");
-        bad(&|c| c.false_alarm_probability = 0.0, "false_alarm_probability");
+        bad(
+            &|c| c.false_alarm_probability = 0.0,
+            "false_alarm_probability",
+        );
         bad(&|c| c.bandwidth_hz = -1.0, "bandwidth_hz");
         bad(&|c| c.quantum_efficiency = 1.5, "quantum_efficiency");
         bad(&|c| c.max_returns_per_beam = 0, "max_returns_per_beam");
