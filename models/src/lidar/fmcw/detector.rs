@@ -16,8 +16,8 @@
 //!      d = round(τf_s) steps of one laser phase walk shared by all returns of the ramp; the steps are
 //!      ±1 (Rademacher, 64 per random word) of variance σ² = 2πΔν/f_s. Its characteristic function
 //!      cos(σ)^m differs from the Gaussian exp(−mσ²/2) by O(σ⁴m) — 10⁻⁶ relative at Δν = 100 kHz —
-//!      so the beat spectrum is that of a Wiener phase (coherent fraction exp(−2πΔντ), physics.md
-//!      §2.9) at the cost of one complex product per sample;
+//!      so the beat spectrum is that of a Wiener phase (coherent fraction exp(−2πΔντ),
+//!      physics.md §2.9) at the cost of one complex product per sample;
 //!    * w[n] complex Gaussian, E|w|² = 1.
 //! 2. **Spectrum.** Hann window w_n = ½ − ½cos(2πn/N), N-point FFT (planned once), power |X_k|².
 //!    Noise power per bin: Σw² (= 3N/8); coherent gain of a tone on a bin: (Σw)² (= N²/4).
