@@ -47,6 +47,7 @@ pub mod beam;
 pub mod bench;
 pub mod detection;
 pub mod export;
+pub mod fmcw;
 pub mod scan;
 pub mod signal;
 
