@@ -779,6 +779,7 @@ impl Recycled {
             c.channel.clear();
             c.echo.clear();
             c.object_id.clear();
+            c.range_rate_m_s.clear();
             c.intensity_scale = None;
             c.wavelength_nm = None;
             c.pulses_fired = None;

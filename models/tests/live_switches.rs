@@ -33,6 +33,8 @@ use osiris_proto::{id, osi3, timestamp_from_seconds};
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Bench {
     Lidar,
+    /// The LiDAR scene through the FMCW chain (`preset: fmcw`).
+    Fmcw,
     Radar,
     Camera,
 }
@@ -65,6 +67,9 @@ const CASES: &[(&str, Bench)] = &[
     ("lidar.scan_motion", Bench::Lidar),
     ("lidar.vertical_divergence", Bench::Lidar),
     ("lidar.mixed_pixels", Bench::Lidar),
+    ("lidar.fmcw_speckle", Bench::Fmcw),
+    ("lidar.fmcw_phase_noise", Bench::Fmcw),
+    ("lidar.fmcw_chirp_nonlinearity", Bench::Fmcw),
     // Radar.
     ("radar.two_way_spreading", Bench::Radar),
     ("radar.rcs_area_scaling", Bench::Radar),
@@ -538,6 +543,53 @@ fn lidar_switches_are_live() {
     }
     eprintln!("lidar: {:.1} s", t.elapsed().as_secs_f64());
     report("lidar", failures);
+}
+
+/// The LiDAR reference scene and scan through the FMCW chain (1550 nm, 512 samples per ramp).
+fn fmcw_config() -> SensorConfig {
+    let mut c = lidar_config();
+    let l = c.lidar.as_mut().unwrap();
+    l.preset = osiris_models::lidar::scan::Preset::Fmcw;
+    l.detector = DetectorConfig::default();
+    l.fmcw = Some(osiris_models::lidar::fmcw::FmcwConfig {
+        samples_per_chirp: 512,
+        ..Default::default()
+    });
+    c
+}
+
+#[test]
+fn fmcw_switches_are_live() {
+    let v = lidar_view();
+    // Points with their range rates.
+    let run = |c: SensorConfig| {
+        let mut s = LidarSensor::new(c).expect("FMCW lidar config");
+        let out = step(&mut s, &v);
+        let rates = out
+            .perception
+            .lidar
+            .as_ref()
+            .unwrap()
+            .range_rate_m_s
+            .clone();
+        (cloud(&out), rates)
+    };
+    let base = run(fmcw_config());
+    assert_eq!(base.1.len(), base.0.len(), "one range rate per point");
+    for oid in [L_BOARD, L_CAR] {
+        assert!(
+            on_object(&base.0, oid).len() >= 10,
+            "the reference scene sees object {oid} ({} points)",
+            on_object(&base.0, oid).len()
+        );
+    }
+    let mut failures = Vec::new();
+    for e in cases_of(Bench::Fmcw) {
+        if run(toggled(fmcw_config(), &e)) == base {
+            failures.push(format!("{}: the point cloud does not change", e.name));
+        }
+    }
+    report("fmcw", failures);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -4,7 +4,8 @@
 //! Fields per point: `x y z` (float32, m, sensor frame), `intensity` (float32, the frame's scale),
 //! `t` (uint32, ns after the earliest point of the frame; the absolute time of that point, ns since
 //! simulation start, is in a header comment `timestamp_ns_base`), `ring` (uint16, channel) and
-//! `echo` (uint8, echo index within the pulse).
+//! `echo` (uint8, echo index within the pulse); an FMCW frame (range rates present) adds
+//! `range_rate` (float32, m/s, positive receding; Doppler of the point, `LidarPerception.range_rate_m_s`).
 //!
 //! Formats: PCD v0.7 (PCL, <https://pointclouds.org/documentation/tutorials/pcd_file_format.html>),
 //! binary or ASCII data; PLY 1.0 `binary_little_endian` (Turk 1994).
@@ -24,11 +25,12 @@ fn check(c: &LidarPerception) -> io::Result<usize> {
         c.channel.len(),
         c.echo.len(),
     ];
-    if lens.iter().any(|&l| l != n) {
+    let rates = c.range_rate_m_s.len();
+    if lens.iter().any(|&l| l != n) || (rates != 0 && rates != n) {
         return Err(io::Error::new(
             io::ErrorKind::InvalidData,
             format!(
-                "LidarPerception arrays differ in length: x_m {n}, y/z/intensity/timestamp/channel/echo {lens:?}"
+                "LidarPerception arrays differ in length: x_m {n}, y/z/intensity/timestamp/channel/echo {lens:?}, range_rate_m_s {rates}"
             ),
         ));
     }
@@ -43,16 +45,32 @@ fn rel_t(c: &LidarPerception, base: i64, i: usize) -> u32 {
     (c.timestamp_ns[i] - base).clamp(0, i64::from(u32::MAX)) as u32
 }
 
-fn pcd_header(w: &mut impl Write, n: usize, base: i64, data: &str) -> io::Result<()> {
+/// Whether the frame carries range rates (FMCW): one more field per point.
+fn has_rates(c: &LidarPerception) -> bool {
+    !c.range_rate_m_s.is_empty()
+}
+
+fn pcd_header(
+    w: &mut impl Write,
+    c: &LidarPerception,
+    n: usize,
+    base: i64,
+    data: &str,
+) -> io::Result<()> {
+    let (fields, size, ty, count) = if has_rates(c) {
+        (" range_rate", " 4", " F", " 1")
+    } else {
+        ("", "", "", "")
+    };
     write!(
         w,
         "# .PCD v0.7 - Point Cloud Data file format\n\
          # osiris lidar frame; t = ns after timestamp_ns_base {base}\n\
          VERSION 0.7\n\
-         FIELDS x y z intensity t ring echo\n\
-         SIZE 4 4 4 4 4 2 1\n\
-         TYPE F F F F U U U\n\
-         COUNT 1 1 1 1 1 1 1\n\
+         FIELDS x y z intensity t ring echo{fields}\n\
+         SIZE 4 4 4 4 4 2 1{size}\n\
+         TYPE F F F F U U U{ty}\n\
+         COUNT 1 1 1 1 1 1 1{count}\n\
          WIDTH {n}\n\
          HEIGHT 1\n\
          VIEWPOINT 0 0 0 1 0 0 0\n\
@@ -65,7 +83,7 @@ fn pcd_header(w: &mut impl Write, n: usize, base: i64, data: &str) -> io::Result
 pub fn write_pcd(c: &LidarPerception, w: &mut impl Write) -> io::Result<()> {
     let n = check(c)?;
     let base = time_base(c);
-    pcd_header(w, n, base, "binary")?;
+    pcd_header(w, c, n, base, "binary")?;
     let mut buf = Vec::with_capacity(n * 23);
     for i in 0..n {
         buf.extend_from_slice(&c.x_m[i].to_le_bytes());
@@ -75,6 +93,9 @@ pub fn write_pcd(c: &LidarPerception, w: &mut impl Write) -> io::Result<()> {
         buf.extend_from_slice(&rel_t(c, base, i).to_le_bytes());
         buf.extend_from_slice(&(c.channel[i].min(u32::from(u16::MAX)) as u16).to_le_bytes());
         buf.push(c.echo[i].min(255) as u8);
+        if let Some(r) = c.range_rate_m_s.get(i) {
+            buf.extend_from_slice(&r.to_le_bytes());
+        }
     }
     w.write_all(&buf)
 }
@@ -83,9 +104,9 @@ pub fn write_pcd(c: &LidarPerception, w: &mut impl Write) -> io::Result<()> {
 pub fn write_pcd_ascii(c: &LidarPerception, w: &mut impl Write) -> io::Result<()> {
     let n = check(c)?;
     let base = time_base(c);
-    pcd_header(w, n, base, "ascii")?;
+    pcd_header(w, c, n, base, "ascii")?;
     for i in 0..n {
-        writeln!(
+        write!(
             w,
             "{} {} {} {} {} {} {}",
             c.x_m[i],
@@ -96,6 +117,10 @@ pub fn write_pcd_ascii(c: &LidarPerception, w: &mut impl Write) -> io::Result<()
             c.channel[i].min(u32::from(u16::MAX)),
             c.echo[i].min(255)
         )?;
+        match c.range_rate_m_s.get(i) {
+            Some(r) => writeln!(w, " {r}")?,
+            None => writeln!(w)?,
+        }
     }
     Ok(())
 }
@@ -117,7 +142,12 @@ pub fn write_ply(c: &LidarPerception, w: &mut impl Write) -> io::Result<()> {
          property uint t\n\
          property ushort ring\n\
          property uchar echo\n\
-         end_header\n"
+         {rate}end_header\n",
+        rate = if has_rates(c) {
+            "property float range_rate\n"
+        } else {
+            ""
+        }
     )?;
     let mut buf = Vec::with_capacity(n * 23);
     for i in 0..n {
@@ -128,6 +158,9 @@ pub fn write_ply(c: &LidarPerception, w: &mut impl Write) -> io::Result<()> {
         buf.extend_from_slice(&rel_t(c, base, i).to_le_bytes());
         buf.extend_from_slice(&(c.channel[i].min(u32::from(u16::MAX)) as u16).to_le_bytes());
         buf.push(c.echo[i].min(255) as u8);
+        if let Some(r) = c.range_rate_m_s.get(i) {
+            buf.extend_from_slice(&r.to_le_bytes());
+        }
     }
     w.write_all(&buf)
 }
@@ -182,5 +215,46 @@ mod tests {
         let mut bad = cloud();
         bad.echo.pop();
         assert!(write_pcd(&bad, &mut Vec::new()).is_err());
+    }
+
+    #[test]
+    fn fmcw_frames_carry_the_range_rate() {
+        let mut c = cloud();
+        c.range_rate_m_s = vec![-3.5, 12.25];
+        let mut out = Vec::new();
+        write_pcd(&c, &mut out).unwrap();
+        let text_end = out.windows(12).position(|w| w == b"DATA binary\n").unwrap() + 12;
+        let header = std::str::from_utf8(&out[..text_end]).unwrap();
+        assert!(header.contains("FIELDS x y z intensity t ring echo range_rate\n"));
+        assert!(
+            header.contains("SIZE 4 4 4 4 4 2 1 4\n") && header.contains("TYPE F F F F U U U F\n")
+        );
+        let body = &out[text_end..];
+        assert_eq!(body.len(), 2 * 27);
+        assert_eq!(
+            f32::from_le_bytes(body[27 + 23..27 + 27].try_into().unwrap()),
+            12.25
+        );
+        let mut ply = Vec::new();
+        write_ply(&c, &mut ply).unwrap();
+        let end = ply.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+        assert!(
+            std::str::from_utf8(&ply[..end])
+                .unwrap()
+                .contains("property float range_rate\n")
+        );
+        assert_eq!(ply.len() - end, 54);
+        let mut a = Vec::new();
+        write_pcd_ascii(&c, &mut a).unwrap();
+        assert!(
+            String::from_utf8(a)
+                .unwrap()
+                .ends_with("2.5 0 0.25 90 0 127 1 12.25\n")
+        );
+        c.range_rate_m_s.pop();
+        assert!(
+            write_pcd(&c, &mut Vec::new()).is_err(),
+            "one rate per point or none"
+        );
     }
 }

@@ -94,9 +94,13 @@ pub struct LidarConfig {
     /// Recognition (clustering, boxes, tracking) parameters.
     #[serde(default)]
     pub recognition: crate::recognition::lidar::LidarRecognitionConfig,
-    /// Built-in sensor (`vls128` default, `vlp16`): scan pattern and the defaults below.
+    /// Built-in sensor (`vls128` default, `vlp16`, `fmcw`): scan pattern, detection chain (pulsed
+    /// time of flight; `fmcw`: coherent FMCW with per-point Doppler) and the defaults below.
     #[serde(default)]
     pub preset: Preset,
+    /// FMCW chain parameters (`preset: fmcw` only; absent: the defaults of `fmcw::FmcwConfig`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fmcw: Option<fmcw::FmcwConfig>,
     /// Scan pattern replacing the preset's (`{"spinning": {...}}`, `{"mems": {...}}`,
     /// `{"flash": {...}}`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -122,6 +126,7 @@ pub fn effects() -> Vec<EffectInfo> {
         detection::EFFECTS,
         scan::EFFECTS,
         beam::EFFECTS,
+        fmcw::EFFECTS,
     ]
     .concat()
 }
@@ -135,6 +140,9 @@ pub struct Resolved {
     pub divergence_v_rad: f64,
     pub exit_diameter_m: f64,
     pub sub_rays: usize,
+    /// The FMCW chain's parameters (`preset: fmcw`; its wavelength is `wavelength_nm`), or `None`
+    /// for the pulsed chain.
+    pub fmcw: Option<fmcw::FmcwConfig>,
 }
 
 impl LidarConfig {
@@ -177,7 +185,32 @@ impl LidarConfig {
         self.signal.validate()?;
         let sub_rays = self.beam.sub_rays.unwrap_or(1);
         beam::rings_for(sub_rays)?;
+        let fmcw = match (self.preset, &self.fmcw) {
+            (Preset::Fmcw, given) => {
+                let mut f = given.clone().unwrap_or_default();
+                if given.is_some() && f.wavelength_nm != fmcw::FmcwConfig::default().wavelength_nm {
+                    return Err(ModelError::Config(
+                        "`lidar.fmcw.wavelength_nm`: set the wavelength with `lidar.wavelength_nm`"
+                            .into(),
+                    ));
+                }
+                f.wavelength_nm = wavelength_nm;
+                f.validate()?;
+                Some(f)
+            }
+            (_, Some(_)) => {
+                return Err(ModelError::Config(format!(
+                    "`lidar.fmcw` parameters given for the pulsed preset `{}`; set `\"preset\": \"fmcw\"`",
+                    serde_json::to_value(self.preset)
+                        .ok()
+                        .and_then(|v| v.as_str().map(str::to_string))
+                        .unwrap_or_default()
+                )));
+            }
+            (_, None) => None,
+        };
         Ok(Resolved {
+            fmcw,
             pattern,
             wavelength_nm,
             divergence_h_rad: non_neg(
@@ -219,8 +252,11 @@ pub struct PointRecord {
     pub echo: u32,
     /// Ground-truth object (`INVALID_ID` = none).
     pub object_id: u64,
-    /// Echo pulse width, s.
+    /// Echo pulse width, s (FMCW: the beat peak's −3 dB width in range, as 2·width/c).
     pub pulse_width_s: f32,
+    /// Measured range rate (FMCW: from the Doppler of the beat peaks), m/s, positive receding;
+    /// `None` for the pulsed chain.
+    pub range_rate_m_s: Option<f32>,
 }
 
 /// What the engine needs of the world for one frame (the scene frame throughout).
@@ -247,6 +283,13 @@ struct Scratch {
     tagged: Vec<(u64, Return)>,
     returns: Vec<Return>,
     echoes: Vec<Echo>,
+    /// FMCW chain: the range rate of each `tagged` return, m/s.
+    rates: Vec<f64>,
+    /// FMCW chain: the returns, echoes, range rates and the detector's buffers of one beam.
+    fmcw_returns: Vec<fmcw::FmcwReturn>,
+    fmcw_echoes: Vec<fmcw::FmcwEcho>,
+    echo_rates: Vec<f32>,
+    fmcw: Option<fmcw::FmcwScratch>,
 }
 
 /// The per-frame pulse engine: the scan plan, the beam sampling and the detector, planned once;
@@ -257,6 +300,8 @@ pub struct LidarEngine {
     frames: Vec<[DVec3; 3]>,
     sub_rays: Vec<beam::SubRay>,
     detector: Detector,
+    /// The FMCW chain's detector (`preset: fmcw`); `None`: the pulsed `detector`.
+    fmcw: Option<fmcw::FmcwDetector>,
     band: material::Band,
     material_effects: MaterialEffects,
     incidence: bool,
@@ -326,8 +371,9 @@ impl LidarEngine {
             beta_v,
         );
         // Intensity calibration: 100 % Lambertian, normal incidence, clear air (log grid).
+        let signal_config = chain_signal(lidar, resolved);
         let clear = SignalPlan::new(
-            &lidar.signal,
+            &signal_config,
             effects,
             &crate::environment::weather::Weather::CLEAR,
             resolved.wavelength_nm,
@@ -343,7 +389,12 @@ impl LidarEngine {
                 .push(clear.reference_power_w(r));
         }
         let detector = Detector::new(&lidar.detector, effects, calibration)?;
+        let fmcw = match &resolved.fmcw {
+            Some(f) => Some(fmcw::FmcwDetector::new(f, effects)?),
+            None => None,
+        };
         Ok(LidarEngine {
+            fmcw,
             frames: firings.iter().map(beam_frame).collect(),
             firings,
             sub_rays,
@@ -453,6 +504,7 @@ impl LidarEngine {
                 0.0
             };
             s.tagged.clear();
+            s.rates.clear();
             let mut background_w = 0.0;
             let mut shadow_tested: Option<bool> = None;
             for j in 0..m {
@@ -499,6 +551,11 @@ impl LidarEngine {
                         * pane_t
                         * pane_t;
                     let (key, object_id) = surface_key(&hit, input.scene);
+                    if self.fmcw.is_some() {
+                        // Doppler: the range rate of the hit point seen from the moving sensor
+                        // (the ray leaves the sensor origin, so its velocity is the sensor's).
+                        s.rates.push(d.dot(hit.velocity_m_s - input.velocity_m_s));
+                    }
                     s.tagged.push((
                         key,
                         Return {
@@ -535,13 +592,59 @@ impl LidarEngine {
                     }
                 }
             }
-            if s.tagged.is_empty() {
+            // An empty beam has no echo, except the FMCW chain's false alarms (noise peaks that
+            // pass the threshold in both ramps, drawn in closed form by its detector).
+            if s.tagged.is_empty() && self.fmcw.is_none() {
                 continue;
             }
             let mut rng =
                 SmallRng::seed_from_u64(self.seed ^ splitmix64(splitmix64(input.cycle) ^ pulse));
             s.echoes.clear();
-            if self.mixed_pixels {
+            s.echo_rates.clear();
+            if let Some(det) = &self.fmcw {
+                // FMCW: every surface in the footprint is its own beat tone of one coherent
+                // measurement (physics.md §2.10); sunlight only adds shot noise.
+                s.fmcw_returns.clear();
+                s.fmcw_returns
+                    .extend(
+                        s.tagged
+                            .iter()
+                            .zip(&s.rates)
+                            .map(|(t, &rate)| fmcw::FmcwReturn {
+                                range_m: t.1.range_m,
+                                range_rate_m_s: rate,
+                                power_w: t.1.power_w,
+                                object_id: t.1.object_id,
+                            }),
+                    );
+                let scratch = s.fmcw.get_or_insert_with(|| det.scratch());
+                s.fmcw_echoes.clear();
+                det.detect(
+                    scratch,
+                    &s.fmcw_returns,
+                    background_w,
+                    &mut rng,
+                    &mut s.fmcw_echoes,
+                );
+                s.fmcw_echoes
+                    .sort_by(|x, y| x.range_m.total_cmp(&y.range_m));
+                for e in &s.fmcw_echoes {
+                    // The calibration is the chain's (`chain_signal`: the FMCW CW power).
+                    let reference = self.detector.reference_power_w(e.range_m).max(1e-30);
+                    s.echoes.push(Echo {
+                        range_m: e.range_m,
+                        peak_power_w: e.power_w,
+                        // Reflectivity, %: the echo power over a 100 % Lambertian target's at the
+                        // same range (speckle makes it fluctuate, as on a real coherent sensor).
+                        intensity: (100.0 * e.power_w / reference) as f32,
+                        snr: 10f64.powf(e.snr_db / 20.0) as f32,
+                        saturated: false,
+                        pulse_width_s: (2.0 * e.peak_width_m / SPEED_OF_LIGHT_M_S) as f32,
+                        object_id: e.object_id,
+                    });
+                    s.echo_rates.push(e.range_rate_m_s as f32);
+                }
+            } else if self.mixed_pixels {
                 s.returns.clear();
                 s.returns.extend(s.tagged.iter().map(|t| t.1));
                 self.detect(&mut s.returns, background_w, &mut rng, &mut s.echoes);
@@ -594,6 +697,7 @@ impl LidarEngine {
                     echo: e_idx as u32,
                     object_id: e.object_id,
                     pulse_width_s: e.pulse_width_s,
+                    range_rate_m_s: s.echo_rates.get(e_idx).copied(),
                 });
             }
         }
@@ -609,6 +713,16 @@ impl LidarEngine {
     ) {
         self.detector.detect(returns, background_w, rng, out);
     }
+}
+
+/// The transmitter / receiver optics of the chain in use: the configured ones, with the FMCW
+/// chain's CW power `lidar.fmcw.tx_power_w` as the transmitted power.
+fn chain_signal(lidar: &LidarConfig, resolved: &Resolved) -> SignalConfig {
+    let mut signal = lidar.signal;
+    if let Some(f) = &resolved.fmcw {
+        signal.peak_power_w = f.tx_power_w;
+    }
+    signal
 }
 
 /// A key identifying the surface a hit belongs to (object + part, or static element) and the
@@ -699,7 +813,7 @@ impl Physics for LidarPhysics {
             .as_ref()
             .and_then(|g| g.environmental_conditions.as_ref());
         let signal = SignalPlan::new(
-            &self.lidar.signal,
+            &chain_signal(&self.lidar, &self.resolved),
             &self.effects,
             &frame.weather,
             self.resolved.wavelength_nm,
@@ -763,10 +877,13 @@ impl Physics for LidarPhysics {
         cloud.channel.clear();
         cloud.echo.clear();
         cloud.object_id.clear();
+        cloud.range_rate_m_s.clear();
         dets.clear();
 
         let t0 = osiris_proto::timestamp_to_nanos(&frame.timestamp);
-        let u8_scale = self.lidar.detector.intensity_scale == detection::IntensityScale::U8;
+        // The FMCW chain reports reflectivity in % (`LidarEngine`); the pulsed one its detector's scale.
+        let u8_scale = self.resolved.fmcw.is_none()
+            && self.lidar.detector.intensity_scale == detection::IntensityScale::U8;
         // OSI intensity is in %: the u8 byte's diffuse part 0–100 is already %; its retro-reflector
         // codes 101–255 are reported as 100 %.
         let pct = |v: f32| {
@@ -786,6 +903,9 @@ impl Physics for LidarPhysics {
             cloud.channel.push(p.channel);
             cloud.echo.push(p.echo);
             cloud.object_id.push(p.object_id);
+            if let Some(rate) = p.range_rate_m_s {
+                cloud.range_rate_m_s.push(rate);
+            }
             dets.push(osi3::LidarDetection {
                 existence_probability: Some(1.0),
                 object_id: objects.get(i).copied().flatten().map(id),
@@ -794,6 +914,8 @@ impl Physics for LidarPhysics {
                 // OSI `echo_pulse_width` is a length (m): c·τ/2 of the echo's width in time.
                 echo_pulse_width: Some(f64::from(p.pulse_width_s) * SPEED_OF_LIGHT_M_S / 2.0),
                 beam_id: Some(id(u64::from(p.channel))),
+                // OSI: positive towards the sensor (as the radar's).
+                radial_velocity: p.range_rate_m_s.map(|v| -f64::from(v)),
                 ..Default::default()
             });
         }

@@ -75,6 +75,11 @@ pub enum Preset {
     Vls128,
     /// Velodyne Puck VLP-16 (16 channels, ±15° in 2° steps, 600 RPM).
     Vlp16,
+    /// A 1550 nm FMCW (coherent) LiDAR, 128-channel equivalent: the VLS-128's beam layout and
+    /// timing with the FMCW detection chain (`super::fmcw`, parameters `lidar.fmcw`). No
+    /// automotive FMCW sensor publishes its scan; the layout is a stand-in (guessed), the
+    /// wavelength the telecom C band every announced FMCW LiDAR uses (physics.md §2.8).
+    Fmcw,
 }
 
 /// What a preset sets besides its scan pattern (each value overridable in [`super::LidarConfig`]).
@@ -119,13 +124,25 @@ impl Preset {
                 divergence_v_rad: 3.0e-3,
                 rpm: 600.0,
             },
+            // Guessed: 300 m (Aeva Aeries II data sheet: "up to 500 m"), the range resolution of
+            // the default chirp (c/2B_w with B_w the swept band in the sampling window, §2.8),
+            // 1 mrad single-mode-fibre beams.
+            Preset::Fmcw => PresetSpec {
+                wavelength_nm: 1550.0,
+                max_range_m: 300.0,
+                range_accuracy_m: 0.02,
+                range_resolution_m: 0.59,
+                divergence_h_rad: 1.0e-3,
+                divergence_v_rad: 1.0e-3,
+                rpm: 600.0,
+            },
         }
     }
 
     /// The preset's spinning pattern at `rpm`.
     pub fn pattern(self, rpm: f64) -> SpinningPattern {
         match self {
-            Preset::Vls128 => {
+            Preset::Vls128 | Preset::Fmcw => {
                 let elevation_rad = VLS128_VERT_CORRECTION_RAD.to_vec();
                 let azimuth_offset_rad =
                     (0..128).map(|i| VLS128_ROT_CORRECTION_RAD[i % 8]).collect();
