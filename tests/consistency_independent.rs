@@ -9,7 +9,7 @@
 #[path = "support/independent_truth.rs"]
 mod independent_truth;
 
-use independent_truth::{LidarCase, RadarCase, Written};
+use independent_truth::{FmcwCase, LidarCase, RadarCase, Written};
 use osiris::consistency::ConsistencyArgs;
 use osiris::consistency::cli::run_with;
 use osiris::consistency::report::Summary;
@@ -213,6 +213,38 @@ fn radar_out_of_catalogue() {
     radar(RadarCase::OutOfCatalogue, Expect::NotConfident);
 }
 
+fn fmcw(case: FmcwCase, expect: Expect) {
+    protocol("lidar", case.name(), expect, |seed, dir| {
+        independent_truth::fmcw_lidar_campaign(case, seed, dir)
+    });
+}
+
+#[test]
+fn fmcw_lidar_speckle() {
+    fmcw(FmcwCase::Speckle, Expect::Effect("lidar.fmcw_speckle"));
+}
+
+#[test]
+fn fmcw_lidar_phase_noise() {
+    fmcw(
+        FmcwCase::PhaseNoise,
+        Expect::Effect("lidar.fmcw_phase_noise"),
+    );
+}
+
+#[test]
+fn fmcw_lidar_chirp_nonlinearity() {
+    fmcw(
+        FmcwCase::ChirpNonlinearity,
+        Expect::Effect("lidar.fmcw_chirp_nonlinearity"),
+    );
+}
+
+#[test]
+fn fmcw_lidar_null() {
+    fmcw(FmcwCase::Null, Expect::Consistent);
+}
+
 #[test]
 fn lidar_overlap() {
     lidar(LidarCase::Overlap, Expect::Effect("lidar.overlap_function"));
@@ -286,6 +318,12 @@ fn generator_physics_reference_values() {
     let db_km = |v: f64| 10.0 * std::f64::consts::E.log10() * fog_extinction_per_m(v) * 1000.0;
     assert!((db_km(50.0) - 340.0).abs() < 1.0);
     assert!((db_km(200.0) - 85.0).abs() < 0.5);
+    // FMCW coherence: at R = c/(4πΔν) the coherent fraction is 1/e (τ = 2R/c = τ_c/2, τ_c =
+    // 1/(πΔν)); 300 kHz → R = 79.5 m; 0 Hz → 1.
+    let r_e = 299_792_458.0 / (4.0 * std::f64::consts::PI * 300e3);
+    assert!((r_e - 79.52).abs() < 0.01);
+    assert!((coherent_fraction(r_e, 300e3) - (-1.0f64).exp()).abs() < 1e-12);
+    assert_eq!(coherent_fraction(50.0, 0.0), 1.0);
 }
 
 /// The closed loop on an independent ground-multipath campaign with the physical radar model
