@@ -254,6 +254,8 @@ pub fn metric_quantities(kind: campaign::CampaignSensor) -> &'static [&'static s
             quantity::POINTS_ON_TARGET_PCT,
             quantity::GAP_POINTS,
             quantity::RADIAL_VELOCITY_KMH,
+            quantity::INTENSITY_SD_DB,
+            quantity::RANGE_SD_M,
         ],
         campaign::CampaignSensor::Camera => {
             &[quantity::CAMERA_MEAN_PCT, quantity::CAMERA_VARIANCE_ROI_PCT]

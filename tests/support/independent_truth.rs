@@ -1417,6 +1417,11 @@ impl FmcwCase {
     }
 }
 
+/// The LiDAR's mounting on the host (x, z), m, as the campaigns write it.
+pub fn lidar_mounting() -> (f64, f64) {
+    (HOST_LEN / 2.0, LIDAR_MOUNT_H - HOST_H / 2.0)
+}
+
 /// Laser linewidth of the phase-noise case, Hz (GUESSED: a DFB-class laser; −2.7 dB at 50 m).
 pub const FMCW_LINEWIDTH_HZ: f64 = 300e3;
 /// Range smear of the chirp case, σ_R / R (GUESSED: 0.1 m at 50 m).
