@@ -813,3 +813,62 @@ fn exit_status_separates_verdicts_from_errors() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
 }
+
+/// `sensor.lidar_preset = "fmcw"`: the re-simulation runs the FMCW preset, the catalogue offers the
+/// FMCW effects (and fog extinction only where the campaign has a finite visibility); a pulsed
+/// campaign gets no FMCW entry; a radar campaign cannot name a LiDAR preset.
+#[test]
+fn fmcw_campaign_selects_the_preset_and_the_fmcw_entries() {
+    use osiris::consistency::campaign::CampaignSensor;
+    use osiris::consistency::catalogue::Catalogue;
+    let dir = tempfile::tempdir().unwrap();
+    let text = |preset: &str, fog: &str| {
+        format!(
+            "schema = \"osiris.consistency/1\"\n[run]\nid = \"f\"\n[sensor]\nkind = \"lidar\"\n{preset}\n\
+             [environment]\nfog_visibility_m = {fog}\n[traces]\nsensor_view = \"sv.osi\"\nsensor_data = \"sd.osi\"\n"
+        )
+    };
+    let ids = |c: &Campaign| -> Vec<String> {
+        Catalogue::builtin(CampaignSensor::Lidar)
+            .unwrap()
+            .for_campaign(c)
+            .effects
+            .iter()
+            .map(|e| e.id().to_string())
+            .collect()
+    };
+    let fmcw = Campaign::parse(&text("lidar_preset = \"fmcw\"", "inf"), dir.path()).unwrap();
+    assert!(fmcw.sensor.is_fmcw());
+    let got = ids(&fmcw);
+    for id in [
+        "lidar.fmcw_speckle",
+        "lidar.fmcw_phase_noise",
+        "lidar.fmcw_chirp_nonlinearity",
+    ] {
+        assert!(got.iter().any(|g| g == id), "{id} missing from {got:?}");
+    }
+    assert!(!got.iter().any(|g| g == "lidar.fog_extinction"), "{got:?}");
+    let pulsed = Campaign::parse(&text("", "200"), dir.path()).unwrap();
+    let got = ids(&pulsed);
+    assert!(!got.iter().any(|g| g.starts_with("lidar.fmcw_")), "{got:?}");
+    assert!(got.iter().any(|g| g == "lidar.fog_extinction"), "{got:?}");
+    let cfg =
+        osiris::consistency::simulate::model_config(&fmcw, None, &Default::default(), 1).unwrap();
+    assert_eq!(
+        cfg.lidar.unwrap().preset,
+        osiris_models::lidar::scan::Preset::Fmcw
+    );
+    let cfg =
+        osiris::consistency::simulate::model_config(&pulsed, None, &Default::default(), 1).unwrap();
+    assert!(
+        cfg.lidar
+            .is_none_or(|l| l.preset != osiris_models::lidar::scan::Preset::Fmcw)
+    );
+    let e = Campaign::parse(
+        &text("lidar_preset = \"fmcw\"", "inf").replace("kind = \"lidar\"", "kind = \"radar\""),
+        dir.path(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("sensor.lidar_preset"), "{e}");
+}

@@ -64,7 +64,13 @@ pub struct NoiseModel {
 
 /// Whether a quantity gets a fitted calibration offset (nuisance).
 pub fn has_offset(q: &str) -> bool {
-    !matches!(q, quantity::POINTS_LOG_RATIO | quantity::GAP_POINTS)
+    !matches!(
+        q,
+        quantity::POINTS_LOG_RATIO
+            | quantity::GAP_POINTS
+            | quantity::INTENSITY_SD_DB
+            | quantity::RANGE_SD_M
+    )
 }
 
 fn hash2(a: u64, b: u64) -> u64 {

@@ -264,6 +264,10 @@ pub struct SensorMeta {
     pub wavelength_nm: Option<f64>,
     pub beam_divergence_mrad: Option<f64>,
     pub range_accuracy_m: Option<f64>,
+    /// LiDAR model preset (`osiris_models::lidar` `preset`, e.g. `"fmcw"`): the re-simulation runs
+    /// it, and an `"fmcw"` campaign gets the FMCW quantities (radial velocity, per-target spreads)
+    /// and the FMCW catalogue entries.
+    pub lidar_preset: Option<String>,
     /// What the real sensor logged, per quantity (`rcs`, `snr`, `intensity`, ...).
     pub quantity_semantics: BTreeMap<String, String>,
     /// Model configuration JSON (absolute, resolved against the TOML's folder).
@@ -280,6 +284,23 @@ impl SensorMeta {
             }
             CampaignSensor::Lidar => self.wavelength_nm.unwrap_or(905.0) * 1e-9,
             CampaignSensor::Camera => 550e-9,
+        }
+    }
+
+    /// Whether the campaign is of an FMCW (coherent) LiDAR: `lidar_preset = "fmcw"`.
+    pub fn is_fmcw(&self) -> bool {
+        self.kind == CampaignSensor::Lidar && self.lidar_preset.as_deref() == Some("fmcw")
+    }
+}
+
+impl Campaign {
+    /// Whether the campaign has a property a catalogue entry `requires`: `"fmcw"` (an FMCW LiDAR,
+    /// `sensor.lidar_preset = "fmcw"`), `"fog"` (a finite `environment.fog_visibility_m`).
+    pub fn has(&self, property: &str) -> bool {
+        match property {
+            "fmcw" => self.sensor.is_fmcw(),
+            "fog" => self.environment.fog_visibility_m.is_finite(),
+            _ => false,
         }
     }
 }
@@ -553,9 +574,18 @@ impl Campaign {
             wavelength_nm: t.f64_opt("wavelength_nm")?,
             beam_divergence_mrad: t.f64_opt("beam_divergence_mrad")?,
             range_accuracy_m: t.f64_opt("range_accuracy_m")?,
+            lidar_preset: t.str_opt("lidar_preset")?,
             quantity_semantics,
             model: t.str_opt("model")?.map(|p| dir.join(p)),
         };
+        if let Some(p) = sensor.lidar_preset.as_deref() {
+            const PRESETS: [&str; 3] = ["vls128", "vlp16", "fmcw"];
+            if kind != CampaignSensor::Lidar || !PRESETS.contains(&p) {
+                bail!(
+                    "consistency.toml: `sensor.lidar_preset` = `{p}`: a LiDAR campaign's preset, one of {PRESETS:?}"
+                );
+            }
+        }
         if kind == CampaignSensor::Camera {
             // Read (and checked) by `camera::CameraCampaign`.
             super::camera::SENSOR_KEYS.iter().for_each(|k| _ = t.get(k));

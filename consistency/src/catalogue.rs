@@ -135,6 +135,12 @@ pub trait EffectSignature: Send + Sync {
     fn model_switch(&self) -> Option<&str> {
         (self.kind() == EffectKind::Model).then(|| self.id())
     }
+    /// Campaign properties the effect needs to be a candidate (`"fmcw"`: an FMCW LiDAR campaign,
+    /// `sensor.lidar_preset = "fmcw"`; `"fog"`: a finite fog visibility); empty: every campaign of
+    /// the sensor.
+    fn requires(&self) -> &[String] {
+        &[]
+    }
     /// Effects with a similar signature on typical designs.
     fn confusable_with(&self) -> &[String] {
         &[]
@@ -164,6 +170,15 @@ pub fn validate(e: &dyn EffectSignature) -> Result<()> {
     }
     if e.params().len() > MAX_PARAMS {
         bail!("catalogue effect `{id}`: at most {MAX_PARAMS} parameters");
+    }
+    if let Some(r) = e
+        .requires()
+        .iter()
+        .find(|r| !["fmcw", "fog"].contains(&r.as_str()))
+    {
+        bail!(
+            "catalogue effect `{id}`: `requires` = `{r}`: the campaign properties are [\"fmcw\", \"fog\"]"
+        );
     }
     for p in e.params() {
         let [lo, hi] = p.bounds;
@@ -214,6 +229,9 @@ pub struct Effect {
     pub params: Vec<Param>,
     /// What the id stands for (a model effect of that name, missing physics, the measurement).
     pub kind: EffectKind,
+    /// Campaign properties the effect needs ([`EffectSignature::requires`]).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub requires: Vec<String>,
     pub confusable_with: Vec<String>,
     pub discriminating_experiment: String,
     pub physics: String,
@@ -248,6 +266,7 @@ impl Effect {
             expr,
             params,
             kind: EffectKind::MissingPhysics,
+            requires: Vec::new(),
             confusable_with: Vec::new(),
             discriminating_experiment: String::new(),
             physics: String::new(),
@@ -291,6 +310,9 @@ impl EffectSignature for Effect {
     }
     fn kind(&self) -> EffectKind {
         self.kind
+    }
+    fn requires(&self) -> &[String] {
+        &self.requires
     }
     fn confusable_with(&self) -> &[String] {
         &self.confusable_with
@@ -431,6 +453,14 @@ impl Catalogue {
             .map(|e| e.as_ref())
     }
 
+    /// The catalogue a campaign is attributed with: the effects whose `requires` the campaign has.
+    pub fn for_campaign(&self, campaign: &super::campaign::Campaign) -> Catalogue {
+        let mut c = self.clone();
+        c.effects
+            .retain(|e| e.requires().iter().all(|r| campaign.has(r)));
+        c
+    }
+
     /// The documentation of every effect.
     pub fn docs(&self) -> Vec<EffectDoc> {
         self.effects
@@ -543,6 +573,7 @@ impl Catalogue {
                 expr,
                 params,
                 kind,
+                requires: strs(get(&t, "requires"), "requires")?,
                 confusable_with: strs(get(&t, "confusable_with"), "confusable_with")?,
                 discriminating_experiment: s(
                     get(&t, "discriminating_experiment"),

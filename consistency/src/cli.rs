@@ -130,7 +130,8 @@ pub fn run_with_catalogue(
         ),
         Some(c) => c.clone(),
         None => Catalogue::builtin(campaign.sensor.kind)?,
-    };
+    }
+    .for_campaign(&campaign);
     if campaign.sensor.kind == CampaignSensor::Camera {
         return super::camera::run_with(args, &campaign, &catalogue);
     }

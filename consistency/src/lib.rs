@@ -127,7 +127,8 @@ pub fn two_ray_geometry(range_m: f64, mount_h: f64, pc_h: f64) -> (f64, f64, f64
 pub mod quantity {
     /// Radar/LiDAR range, m.
     pub const RANGE_M: &str = "range_m";
-    /// Radar radial velocity, km/h (OSI sign: positive towards the sensor).
+    /// Radar and FMCW LiDAR radial velocity, km/h (OSI sign: positive towards the sensor; a
+    /// LiDAR point's `LidarDetection.radial_velocity`).
     pub const RADIAL_VELOCITY_KMH: &str = "radial_velocity_kmh";
     /// Radar azimuth, deg.
     pub const AZIMUTH_DEG: &str = "azimuth_deg";
@@ -141,6 +142,12 @@ pub mod quantity {
     pub const POINTS_LOG_RATIO: &str = "points_log_ratio";
     /// LiDAR points on target per target and frame, relative error % (metrics).
     pub const POINTS_ON_TARGET_PCT: &str = "points_on_target_pct";
+    /// FMCW LiDAR: spread of the intensity over a target's points in one frame, the standard
+    /// deviation of 10·log10(I), dB; meas − sim (speckle; no offset is fitted).
+    pub const INTENSITY_SD_DB: &str = "intensity_sd_db";
+    /// FMCW LiDAR: spread of a target's points in depth (along the target box's x axis, the normal
+    /// of a board) in one frame, standard deviation, m; meas − sim (range smear; no offset).
+    pub const RANGE_SD_M: &str = "range_sd_m";
     /// LiDAR points in depth gaps (no target id) per frame, count.
     pub const GAP_POINTS: &str = "gap_points";
     /// Camera ROI mean, meas − sim, DN (attribution; a black-level offset is fitted). Rows carry
@@ -196,7 +203,8 @@ pub fn tolerance_of(q: &str, t: &campaign::Tolerances) -> f64 {
         quantity::AZIMUTH_DEG => t.azimuth_deg,
         quantity::POWER_DB => t.power_db,
         quantity::INTENSITY_PCT => t.intensity_pct,
-        quantity::INTENSITY_DB => t.intensity_db,
+        quantity::INTENSITY_DB | quantity::INTENSITY_SD_DB => t.intensity_db,
+        quantity::RANGE_SD_M => t.range_m,
         quantity::POINTS_ON_TARGET_PCT => t.points_on_target_pct,
         quantity::POINTS_LOG_RATIO => (1.0 + t.points_on_target_pct / 100.0).ln(),
         quantity::GAP_POINTS => t.gap_points,
@@ -221,6 +229,9 @@ pub fn attribution_quantities(kind: campaign::CampaignSensor) -> &'static [&'sta
             quantity::RANGE_M,
             quantity::POINTS_LOG_RATIO,
             quantity::GAP_POINTS,
+            quantity::RADIAL_VELOCITY_KMH,
+            quantity::INTENSITY_SD_DB,
+            quantity::RANGE_SD_M,
         ],
         campaign::CampaignSensor::Camera => {
             &[quantity::CAMERA_MEAN_DN, quantity::CAMERA_VARIANCE_PCT]
@@ -242,6 +253,9 @@ pub fn metric_quantities(kind: campaign::CampaignSensor) -> &'static [&'static s
             quantity::INTENSITY_PCT,
             quantity::POINTS_ON_TARGET_PCT,
             quantity::GAP_POINTS,
+            quantity::RADIAL_VELOCITY_KMH,
+            quantity::INTENSITY_SD_DB,
+            quantity::RANGE_SD_M,
         ],
         campaign::CampaignSensor::Camera => {
             &[quantity::CAMERA_MEAN_PCT, quantity::CAMERA_VARIANCE_ROI_PCT]

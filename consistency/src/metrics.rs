@@ -127,10 +127,12 @@ pub struct Metric {
 /// Unit of a quantity id.
 pub fn unit_of(q: &str) -> &'static str {
     match q {
-        super::quantity::RANGE_M => "m",
+        super::quantity::RANGE_M | super::quantity::RANGE_SD_M => "m",
         super::quantity::RADIAL_VELOCITY_KMH => "km/h",
         super::quantity::AZIMUTH_DEG => "deg",
-        super::quantity::POWER_DB | super::quantity::INTENSITY_DB => "dB",
+        super::quantity::POWER_DB
+        | super::quantity::INTENSITY_DB
+        | super::quantity::INTENSITY_SD_DB => "dB",
         super::quantity::INTENSITY_PCT | super::quantity::POINTS_ON_TARGET_PCT => "%",
         super::quantity::GAP_POINTS => "points/frame",
         super::quantity::POINTS_LOG_RATIO => "ln ratio",

@@ -640,6 +640,81 @@ fn lidar_target(
     })
 }
 
+/// FMCW LiDAR points need this many points on a target (each side) for its spread rows.
+const MIN_SPREAD_POINTS: usize = 8;
+
+fn sd(v: &[f64]) -> f64 {
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+}
+
+/// FMCW LiDAR spread rows per target and frame (each side over its own points on the target):
+/// [`quantity::INTENSITY_SD_DB`] over the points whose footprint lies wholly on the target
+/// ([`edge_beam`]), [`quantity::RANGE_SD_M`] over the points' depth along the target box's x axis
+/// (a board's normal: flat in truth, so its spread is the range noise and smear). The row's `sim`
+/// variable is the simulated spread.
+fn fmcw_spreads(
+    campaign: &Campaign,
+    geom: &FrameGeom,
+    (m, m_t): (&[osi3::LidarDetection], &[Option<usize>]),
+    (s, s_t): (&[osi3::LidarDetection], &[Option<usize>]),
+    frame: usize,
+    time_s: f64,
+    out: &mut Paired,
+) {
+    for (i, g) in geom.targets.iter().enumerate() {
+        let collect = |dets: &[osi3::LidarDetection], tg: &[Option<usize>]| {
+            let (mut idb, mut depth) = (Vec::new(), Vec::new());
+            for (d, t) in dets.iter().zip(tg) {
+                if *t != Some(i) {
+                    continue;
+                }
+                let Some(pos) = d.position.as_ref() else {
+                    continue;
+                };
+                let p = osiris_models::frames::Spherical::from_osi(pos).to_cartesian();
+                depth.push(
+                    g.pose
+                        .inverse_transform_point(geom.sensor.point_to_global(p))
+                        .x,
+                );
+                if let Some(v) = d.intensity
+                    && !edge_beam(campaign, geom, g, d)
+                {
+                    idb.push(10.0 * v.max(0.01).log10());
+                }
+            }
+            (idb, depth)
+        };
+        let (mi, md) = collect(m, m_t);
+        let (si, sdp) = collect(s, s_t);
+        let x0 = vars(campaign, geom, g);
+        let station = station_key(g.id, g.range_m, g.azimuth_deg);
+        for (q, a, b) in [
+            (quantity::INTENSITY_SD_DB, &mi, &si),
+            (quantity::RANGE_SD_M, &md, &sdp),
+        ] {
+            if a.len() < MIN_SPREAD_POINTS || b.len() < MIN_SPREAD_POINTS {
+                continue;
+            }
+            let (sm, ss) = (sd(a), sd(b));
+            let mut x = x0;
+            x[super::V_SIM] = ss;
+            out.rows.push(Row {
+                quantity: q,
+                frame,
+                time_s,
+                target: g.id,
+                station,
+                meas: sm,
+                sim: ss,
+                x,
+            });
+        }
+    }
+}
+
 /// The median gap between distinct sorted angles (rad), in deg; 0 with fewer than two distinct.
 /// Angles closer than 1e-4 rad (0.006°) count as one beam line.
 fn median_spacing_deg(mut a: Vec<f64>) -> f64 {
@@ -854,6 +929,9 @@ fn lidar_frame(
             });
         }
     }
+    if campaign.sensor.is_fmcw() {
+        fmcw_spreads(campaign, geom, (&m, &m_t), (&s, &s_t), frame, time_s, out);
+    }
     // Beam-id pairing of points on targets.
     if campaign.association.pairing != "beam_id" {
         return;
@@ -917,6 +995,10 @@ fn lidar_frame(
             }
         };
         push(quantity::RANGE_M, rm, rs);
+        // FMCW: the point's radial velocity (OSI sign), km/h.
+        if let (Some(vm), Some(vs)) = (d.radial_velocity, s[j].radial_velocity) {
+            push(quantity::RADIAL_VELOCITY_KMH, vm * 3.6, vs * 3.6);
+        }
         // Intensity only from beams whose footprint lies wholly on the target: at the silhouette's
         // edge the lit fraction of the footprint, and so the intensity, hinges on sub-footprint
         // positions that the ground truth does not pin down (σ_gt) — an edge beam's intensity

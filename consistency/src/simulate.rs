@@ -63,6 +63,21 @@ pub fn model_config(
             kind.name()
         );
     }
+    if let Some(name) = campaign.sensor.lidar_preset.as_deref() {
+        // The campaign's `sensor.lidar_preset` selects the LiDAR model's preset (e.g. the FMCW
+        // chain); a model configuration that names another preset is an error, not overridden.
+        let preset: osiris_models::lidar::scan::Preset =
+            serde_json::from_value(serde_json::Value::String(name.to_owned()))
+                .map_err(|e| anyhow!("`sensor.lidar_preset` = `{name}`: {e}"))?;
+        let lidar = cfg.lidar.get_or_insert_with(Default::default);
+        if lidar.preset != preset && lidar.preset != Default::default() {
+            anyhow::bail!(
+                "the model configuration's LiDAR preset is {:?}, the campaign's `sensor.lidar_preset` `{name}`",
+                lidar.preset
+            );
+        }
+        lidar.preset = preset;
+    }
     cfg.mode = ModelMode::Physical;
     let env = &campaign.environment;
     cfg.weather = Some(Weather {

@@ -1385,3 +1385,257 @@ sensor_data = "meas.osi"
         dropped_frames: dropped,
     })
 }
+
+// ---------------------------------------------------------------------------------------------
+// FMCW (coherent) LiDAR, 1550 nm. Written from the physics (Goodman, Speckle Phenomena in Optics;
+// physics.md §2.8–2.10 as equations, not the model's code): a return of power P (the Lambertian
+// boards of `trace_board`, no biaxial overlap: a coaxial coherent receiver) is detected when
+// P·X > threshold, X the speckle intensity factor; its reported reflectivity is 100·P·X·R² (a
+// float, range-compensated); its range and radial velocity carry white noise.
+
+/// Hidden-effect cases of the FMCW LiDAR campaigns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FmcwCase {
+    /// Fully developed speckle: X ~ Exp(1) per return (one look), the model has X = 1.
+    Speckle,
+    /// Laser linewidth Δν = [`FMCW_LINEWIDTH_HZ`]: the coherent fraction exp(−4πΔνR/c) of the
+    /// power, the model has a perfectly coherent laser.
+    PhaseNoise,
+    /// Chirp non-linearity: a range smear of σ = [`FMCW_SMEAR_PER_M`]·R in the measurement.
+    ChirpNonlinearity,
+    Null,
+}
+
+impl FmcwCase {
+    pub fn name(self) -> &'static str {
+        match self {
+            FmcwCase::Speckle => "fmcw_speckle",
+            FmcwCase::PhaseNoise => "fmcw_phase_noise",
+            FmcwCase::ChirpNonlinearity => "fmcw_chirp_nonlinearity",
+            FmcwCase::Null => "fmcw_null",
+        }
+    }
+}
+
+/// The LiDAR's mounting on the host (x, z), m, as the campaigns write it.
+pub fn lidar_mounting() -> (f64, f64) {
+    (HOST_LEN / 2.0, LIDAR_MOUNT_H - HOST_H / 2.0)
+}
+
+/// Laser linewidth of the phase-noise case, Hz (GUESSED: a DFB-class laser; −2.7 dB at 50 m).
+pub const FMCW_LINEWIDTH_HZ: f64 = 300e3;
+/// Range smear of the chirp case, σ_R / R (GUESSED: 0.1 m at 50 m).
+pub const FMCW_SMEAR_PER_M: f64 = 0.002;
+/// Coherent detection threshold on ρ·f·cosα/R², 20 dB below the pulsed one (shot-noise-limited
+/// heterodyne gain, GUESSED): a 10 % board at 50 m is 26 dB above it.
+pub const FMCW_THRESHOLD: f64 = LIDAR_THRESHOLD / 100.0;
+/// Range and radial-velocity noise (1σ) of a point, m and m/s (both sides).
+pub const FMCW_RANGE_SIGMA_M: f64 = 0.02;
+pub const FMCW_VELOCITY_SIGMA_M_S: f64 = 0.05;
+
+/// Coherent fraction of the power at range R for a laser of linewidth Δν (Lorentzian line,
+/// τ_c = 1/(πΔν), delay τ = 2R/c): exp(−2τ/τ_c) = exp(−4πΔνR/c).
+pub fn coherent_fraction(range_m: f64, linewidth_hz: f64) -> f64 {
+    (-4.0 * PI * linewidth_hz * range_m / 299_792_458.0).exp()
+}
+
+/// Writes an FMCW LiDAR campaign for `case` and `seed` into `dir` (`sensor.lidar_preset = "fmcw"`).
+pub fn fmcw_lidar_campaign(case: FmcwCase, seed: u64, dir: &Path) -> anyhow::Result<Written> {
+    std::fs::create_dir_all(dir)?;
+    let mut rng = Rng::new(seed.wrapping_mul(7_919).wrapping_add(300 + case as u64));
+    let design = lidar_design(LidarCase::Null, &mut rng);
+    let h_s = LIDAR_MOUNT_H;
+    let o = DVec3::new(0.0, 0.0, h_s);
+    let geometry = LidarPhysics {
+        overlap: false,
+        extinction_per_m: 0.0,
+        div_v_mrad: LIDAR_DIV_V_MRAD,
+    };
+    // Gain calibration known to ±0.5 dB (GUESSED: a coherent receiver's gain follows its LO power).
+    let cal_db = rng.range(-0.5, 0.5);
+    let range_offset = rng.range(-0.02, 0.02);
+    let pos_sigma = 0.01;
+    let height_err: Vec<f64> = design
+        .boards
+        .iter()
+        .map(|_| rng.range(-0.02, 0.02))
+        .collect();
+    // One side of the comparison (`hidden`: the truth, with the case's effect; else the model).
+    #[allow(clippy::too_many_arguments)]
+    fn returns(
+        rng: &mut Rng,
+        case: FmcwCase,
+        hidden: bool,
+        p: &LidarPhysics,
+        o: DVec3,
+        c: DVec3,
+        yaw: f64,
+        b: &Board,
+        cal: f64,
+        range_offset: f64,
+        id: Option<u64>,
+    ) -> Vec<osi3::LidarDetection> {
+        let refl = if hidden { b.refl_true } else { b.refl_label };
+        let mut out = Vec::new();
+        for ret in trace_board(p, o, c, yaw, b.width, b.height, refl) {
+            let mut power = ret.power * (1.0 + 0.05 * rng.normal());
+            if hidden && case == FmcwCase::PhaseNoise {
+                power *= coherent_fraction(ret.range, FMCW_LINEWIDTH_HZ);
+            }
+            if hidden && case == FmcwCase::Speckle {
+                // Exponential intensity: −ln U, U uniform in (0, 1].
+                power *= -(1.0 - rng.uniform()).ln();
+            }
+            if power < FMCW_THRESHOLD {
+                continue;
+            }
+            let mut sigma_r = FMCW_RANGE_SIGMA_M;
+            if hidden && case == FmcwCase::ChirpNonlinearity {
+                sigma_r = sigma_r.hypot(FMCW_SMEAR_PER_M * ret.range);
+            }
+            let r_m = ret.range + range_offset + sigma_r * rng.normal();
+            out.push(osi3::LidarDetection {
+                object_id: id.and_then(ident),
+                beam_id: ident(ret.beam),
+                position: spherical(ret.dir * r_m),
+                intensity: Some(100.0 * power * ret.range * ret.range * cal),
+                radial_velocity: Some(FMCW_VELOCITY_SIGMA_M_S * rng.normal()),
+                existence_probability: Some(1.0),
+                ..Default::default()
+            });
+        }
+        out
+    }
+
+    let mut views = Vec::new();
+    let mut meas = Vec::new();
+    let mut sims = Vec::new();
+    let mut frame = 0u64;
+    let mut dropped = 0usize;
+    for st in &design.stations {
+        for _ in 0..design.frames_per_station {
+            let mut logged = Vec::new();
+            let mut m_dets = Vec::new();
+            let mut s_dets = Vec::new();
+            for &(bi, r, az_deg) in st {
+                let b = &design.boards[bi];
+                let az = az_deg.to_radians();
+                let yaw = az + PI;
+                let c_true = DVec3::new(r * az.cos(), r * az.sin(), b.z + height_err[bi]);
+                let jitter = DVec3::new(rng.normal(), rng.normal(), rng.normal()) * pos_sigma;
+                let c_log = DVec3::new(c_true.x, c_true.y, b.z) + jitter;
+                logged.push(LoggedBox {
+                    id: b.id,
+                    centre: c_log,
+                    dims: DVec3::new(0.01, b.width, b.height),
+                    yaw,
+                    model_reference: format!(
+                        "osiris:board?width_m={}&height_m={}&thickness_m=0.01&material=lambertian_{}&mount=none",
+                        b.width, b.height, b.refl_label
+                    ),
+                });
+                s_dets.extend(returns(
+                    &mut rng,
+                    case,
+                    false,
+                    &geometry,
+                    o,
+                    c_log,
+                    yaw,
+                    b,
+                    1.0,
+                    0.0,
+                    Some(b.id),
+                ));
+                m_dets.extend(returns(
+                    &mut rng,
+                    case,
+                    true,
+                    &geometry,
+                    o,
+                    c_true,
+                    yaw,
+                    b,
+                    undb(cal_db),
+                    range_offset,
+                    None,
+                ));
+            }
+            views.push(sensor_view(frame, h_s, &logged));
+            sims.push(sensor_data_lidar(frame, h_s, s_dets));
+            if rng.uniform() < 0.10 {
+                dropped += 1;
+            } else {
+                meas.push(sensor_data_lidar(frame, h_s, m_dets));
+            }
+            frame += 1;
+        }
+    }
+    write_trace(&dir.join("sv.osi"), &views)?;
+    write_trace(&dir.join("meas.osi"), &meas)?;
+    write_trace(&dir.join("model.osi"), &sims)?;
+
+    let mut toml = String::new();
+    let _ = writeln!(
+        toml,
+        r#"schema = "osiris.consistency/1"
+
+[run]
+id = "independent-lidar-{name}-{seed}"
+description = "independent truth generator (tests/support/independent_truth.rs): FMCW LiDAR, Lambertian boards, hidden case `{name}`"
+provenance = "synthetic"
+licence = "MPL-2.0"
+
+[sensor]
+kind = "lidar"
+lidar_preset = "fmcw"
+osi_sensor_id = {SENSOR_ID}
+mounting_position_m = [{mx}, 0.0, {mz}]
+mounting_orientation_rad = [0.0, 0.0, 0.0]
+wavelength_nm = 1550
+beam_divergence_mrad = {LIDAR_DIV_V_MRAD}
+range_accuracy_m = {FMCW_RANGE_SIGMA_M}
+
+[sensor.quantity_semantics]
+intensity = "range-compensated reflectivity in % (coherent peak power × R²), float, unknown gain calibration"
+radial_velocity = "m/s, positive towards the sensor (OSI)"
+
+[environment]
+fog_visibility_m = "inf"
+
+[uncertainty]
+gt_position_sigma_m = {pos_sigma}
+gt_height_sigma_m = 0.0115
+
+[association]
+method = "object_id"
+pairing = "beam_id"
+
+[bins]
+explanatory = ["range", "reflectivity", "height"]
+
+[traces]
+sensor_view = "sv.osi"
+sensor_data = "meas.osi"
+"#,
+        name = case.name(),
+        mx = HOST_LEN / 2.0,
+        mz = h_s - HOST_H / 2.0,
+    );
+    for b in &design.boards {
+        let _ = writeln!(
+            toml,
+            "[[target]]\nid = {}\nkind = \"board\"\nreflectivity_pct = {}\nsize_m = [{}, {}]\nmaterial = \"lambertian_{}\"\norientation = \"facing the sensor\"\n",
+            b.id, b.refl_label, b.width, b.height, b.refl_label
+        );
+    }
+    let meta = dir.join("consistency.toml");
+    std::fs::write(&meta, toml)?;
+    Ok(Written {
+        meta,
+        model_trace: dir.join("model.osi"),
+        hidden: case.name().into(),
+        frames: frame as usize,
+        dropped_frames: dropped,
+    })
+}
