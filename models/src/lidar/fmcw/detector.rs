@@ -25,8 +25,11 @@
 //!    that are local maxima; the strongest first, a peak within ±2 bins of a stronger one (the Hann
 //!    main lobe) dropped; a peak within 19 bins of a stronger one kept only if it also exceeds
 //!    −ln(P_FA) times the smallest-of mean of 16 reference cells on either side beyond 3 guard cells
-//!    (SO-CFAR, Richards 2014 §6.5, physics.md §1.7: rejects the phase-noise pedestal and window
-//!    skirts of strong peaks, keeps a weak surface beside a strong one); at most
+//!    (SO-CFAR, Richards 2014 §6.5, physics.md §1.7: rejects the window skirts of strong peaks,
+//!    keeps a weak surface beside a strong one); with phase noise on, also −ln(P_FA) times the
+//!    noise plus the expected phase-noise pedestal of the stronger peaks at that bin (the delayed
+//!    self-heterodyne spectrum of the laser's calibrated linewidth, which reaches far beyond the
+//!    reference cells at high SNR); at most
 //!    `max_returns_per_beam` kept. Sub-bin frequency and peak power by a
 //!    parabola through the log-power of the three bins (Gaussian interpolation); width: the −3 dB
 //!    width walking down both sides, linearly interpolated.
@@ -67,6 +70,12 @@ const GUARD_BINS: usize = 2;
 
 /// SO-CFAR guard cells on each side of a peak (the Hann main lobe ±2 bins, plus one).
 const CFAR_GUARD_BINS: usize = 3;
+
+/// Margin on the expected phase-noise pedestal (guessed, 10 dB): one ramp sees one realisation of
+/// the laser's phase walk, whose spectrum spreads around its mean far more than white noise does
+/// (and the sampled walk's spectrum lies above the Lorentzian towards f_s/2); without it, pedestal
+/// bins 40–50 dB below a 90 dB peak pass as targets.
+const PEDESTAL_MARGIN: f64 = 10.0;
 
 /// SO-CFAR reference cells on each side.
 const CFAR_REFERENCE_BINS: usize = 16;
@@ -430,6 +439,31 @@ impl FmcwDetector {
         k * self.plan.bin_hz()
     }
 
+    /// Expected |X|² in bin `k` of the phase-noise pedestal of a peak of power `peak` in bin `j`:
+    /// the delayed self-heterodyne spectrum of a Lorentzian laser (linewidth Δν, delay τ from the
+    /// peak's beat frequency, τ ≈ |f|/κ), per unit tone power
+    /// s(f) = (Δν/π)/(Δν² + f²)·[1 − e^(−2πΔντ)(cos 2πfτ + (Δν/f) sin 2πfτ)]
+    /// (Richter et al. 1986; physics.md §2.9), times the bin width and the Hann window's noise
+    /// bandwidth (1.5 bins), scaled by the peak's coherent power `peak / e^(−2πΔντ)`.
+    fn pedestal_per_bin(&self, peak: f64, j: usize, k: usize) -> f64 {
+        let n = self.config.samples_per_chirp;
+        let d = k.abs_diff(j);
+        let bins = d.min(n - d) as f64;
+        if bins < 1.0 {
+            return 0.0;
+        }
+        let bin_hz = self.plan.bin_hz();
+        let f = bins * bin_hz;
+        let f_peak = self.bin_frequency_hz(j as f64).abs();
+        let tau = f_peak / self.plan.slope_hz_per_s;
+        let dnu = self.config.linewidth_hz;
+        let x = 2.0 * std::f64::consts::PI;
+        let coherent = (-x * dnu * tau).exp();
+        let s = dnu / std::f64::consts::PI / (dnu * dnu + f * f)
+            * (1.0 - coherent * ((x * f * tau).cos() + dnu / f * (x * f * tau).sin()));
+        PEDESTAL_MARGIN * peak / coherent.max(1e-12) * s.max(0.0) * bin_hz * 1.5
+    }
+
     /// Thresholds, selects and interpolates the peaks of `scratch.power` into `scratch.peaks[ramp]`.
     fn find_peaks(&self, s: &mut FmcwScratch, ramp: usize) {
         let n = self.config.samples_per_chirp;
@@ -467,6 +501,17 @@ impl FmcwDetector {
                 && (p[k] as f64) < self.threshold / self.noise_bin * smallest_of_mean(p, k)
             {
                 continue;
+            }
+            // And from the phase-noise pedestal the stronger peaks spread over the spectrum
+            // (known from the laser's calibrated linewidth: noise to this detector).
+            if self.phase_noise {
+                let pedestal: f64 = kept[..n_kept]
+                    .iter()
+                    .map(|&j| self.pedestal_per_bin(p[j] as f64, j, k))
+                    .sum();
+                if (p[k] as f64) < self.threshold / self.noise_bin * (self.noise_bin + pedestal) {
+                    continue;
+                }
             }
             kept[n_kept] = k;
             n_kept += 1;
@@ -997,6 +1042,34 @@ mod tests {
             "{ratio} {ratio_far}"
         );
         assert!((w_far / w_near - 1.0).abs() < 0.1, "{w_near} {w_far}");
+    }
+
+    #[test]
+    fn the_phase_noise_pedestal_of_a_strong_peak_gives_no_second_echo() {
+        // One surface at 10, 40 and 100 m, SNR 10⁶ per chirp (60 dB, a near board), default
+        // linewidth: the pedestal exceeds the noise floor over tens of bins, but the detector
+        // treats it as noise, so each beam gives exactly one echo, at the surface's range. The same
+        // with phase noise off.
+        let cfg = FmcwConfig::default();
+        for phase_noise in [true, false] {
+            let det = detector(&cfg, true, phase_noise, true);
+            let p = watts_for_snr(&det, 1e6);
+            for r in [10.0, 40.0, 100.0] {
+                let mut extra = 0;
+                for seed in 0..100 {
+                    let echoes = run(&det, &[ret(r, 0.0, p, 1)], 7000 + seed);
+                    assert!(
+                        echoes.iter().any(|e| (e.range_m - r).abs() < 1.0),
+                        "{r} m, seed {seed}: no echo at the surface ({echoes:?})"
+                    );
+                    extra += echoes.len() - 1;
+                }
+                assert!(
+                    extra <= 1,
+                    "phase noise {phase_noise}, {r} m: {extra} extra echoes in 100 beams"
+                );
+            }
+        }
     }
 
     #[test]
