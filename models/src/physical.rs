@@ -177,23 +177,21 @@ impl<P: Physics> SensorModel for PhysicalSensor<P> {
     }
 
     fn step(&mut self, input: &StepInput<'_>, out: &mut StepOutput) -> Result<(), ModelError> {
-        let config = self.handshake.config();
-        let frame =
-            self.world
-                .update(input.view, config, input.time_s, self.handshake.sensor_id())?;
+        let index = self.cycle;
+        let (frame, config, physics) = self.world_frame(input)?;
         let cycle = Cycle {
-            index: self.cycle,
+            index,
             seed: config.seed.unwrap_or(0),
             config,
             view: input.view,
             step_s: input.step_s,
         };
-        self.physics.perceive(&cycle, &frame)?;
-        self.physics.emit(&cycle, &frame, out);
-        let physics = &self.physics;
+        physics.perceive(&cycle, &frame)?;
+        physics.emit(&cycle, &frame, out);
+        let physics = &*physics;
         finish(
             out,
-            &FrameHeader::of_world(&frame, cycle.index),
+            &FrameHeader::of_world(&frame, index),
             input.view,
             config,
             &PoseFrames::new(&frame.frame, &frame.mounting),

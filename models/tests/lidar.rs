@@ -8,7 +8,7 @@
 //! patterns, so every test is quick in the dev profile.
 
 mod common;
-use common::{dim, rpy, v3};
+use common::{dim, lidar_step as run, rpy, v3};
 use std::f64::consts::PI;
 
 use glam::DVec3;
@@ -135,21 +135,6 @@ fn flash(rows: usize, cols: usize, fov_h: f64, fov_v: f64) -> LidarConfig {
         })),
         ..Default::default()
     }
-}
-
-fn run(cfg: SensorConfig, v: &osi3::SensorView) -> (StepOutput, LidarSensor) {
-    let mut s = LidarSensor::new(cfg).expect("valid config");
-    let mut out = StepOutput::default();
-    s.step(
-        &StepInput {
-            view: v,
-            time_s: 1.0,
-            step_s: 0.1,
-        },
-        &mut out,
-    )
-    .expect("step");
-    (out, s)
 }
 
 fn cloud(out: &StepOutput) -> &LidarPerception {

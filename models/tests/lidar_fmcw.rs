@@ -6,20 +6,18 @@
 //! the FMCW chain's points by less than its own noise.
 
 mod common;
-use common::{dim, rpy, v3};
+use common::{dim, lidar_step, rpy, v3};
 use std::f64::consts::PI;
 
 use glam::DVec3;
 use osiris_models::effects::EffectSwitches;
+use osiris_models::lidar::LidarConfig;
 use osiris_models::lidar::fmcw::FmcwConfig;
 use osiris_models::lidar::scan::{FlashPattern, Preset, ScanPattern};
-use osiris_models::lidar::{LidarConfig, LidarSensor};
 use osiris_models::recognition::ego_motion::{
     DopplerPoint, EgoMotionConfig, estimate_sensor_velocity, vehicle_motion_from_sensor_velocity,
 };
-use osiris_models::{
-    ModelMode, Mounting, SensorConfig, SensorKind, SensorModel, StepInput, StepOutput,
-};
+use osiris_models::{ModelMode, Mounting, SensorConfig, SensorKind, StepOutput};
 use osiris_proto::{id, osi3};
 
 fn car(oid: u64, pos: [f64; 3], yaw: f64, velocity: [f64; 3]) -> osi3::MovingObject {
@@ -115,21 +113,6 @@ fn fmcw(scan: ScanPattern, samples_per_chirp: usize) -> LidarConfig {
     }
 }
 
-fn step(cfg: SensorConfig, v: &osi3::SensorView) -> StepOutput {
-    let mut s = LidarSensor::new(cfg).expect("valid config");
-    let mut out = StepOutput::default();
-    s.step(
-        &StepInput {
-            view: v,
-            time_s: 1.0,
-            step_s: 0.1,
-        },
-        &mut out,
-    )
-    .expect("step");
-    out
-}
-
 /// (position in the sensor frame, range rate, ground-truth object) of every point.
 fn points(out: &StepOutput) -> Vec<(DVec3, f64, u64)> {
     let c = out.perception.lidar.as_ref().expect("lidar perception");
@@ -168,7 +151,7 @@ fn a_moving_car_at_50_m_comes_back_with_its_speed() {
         fov_vertical_rad: 1.5f64.to_radians(),
         centre_rad: [0.0, 0.0],
     });
-    let out = step(config(fmcw(scan, 1024), &[], [0.0, 0.0, 1.0]), &v);
+    let (out, _) = lidar_step(config(fmcw(scan, 1024), &[], [0.0, 0.0, 1.0]), &v);
     let pts = points(&out);
     let vc = DVec3::from(v_car);
     let errors: Vec<f64> = pts
@@ -222,7 +205,7 @@ fn the_pulsed_chain_reports_no_velocity() {
         })),
         ..Default::default()
     };
-    let out = step(config(lidar, &[], [0.0, 0.0, 1.0]), &v);
+    let (out, _) = lidar_step(config(lidar, &[], [0.0, 0.0, 1.0]), &v);
     let c = out.perception.lidar.as_ref().unwrap();
     assert!(!c.x_m.is_empty());
     assert!(c.range_rate_m_s.is_empty());
@@ -266,7 +249,7 @@ fn ego_motion_from_the_doppler_of_a_static_scene_within_one_percent() {
         &[("lidar.scan_motion", false)],
         mount,
     );
-    let out = step(cfg, &v);
+    let (out, _) = lidar_step(cfg, &v);
     let pts = points(&out);
     assert!(pts.len() > 5000, "{} points", pts.len());
     let doppler: Vec<DopplerPoint> = pts
@@ -319,7 +302,7 @@ fn sunlight_changes_the_fmcw_points_less_than_their_noise_but_blinds_the_pulsed_
         let mut cfg = config(lidar.clone(), &[], [0.0, 0.0, 1.0]);
         cfg.seed = Some(seed);
         cfg.range_m = 200.0;
-        let out = step(cfg, &v);
+        let (out, _) = lidar_step(cfg, &v);
         let c = out.perception.lidar.as_ref().expect("lidar perception");
         c.object_id.iter().filter(|&&o| o == 9).count() as f64
     };

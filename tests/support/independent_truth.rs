@@ -1207,6 +1207,102 @@ fn trace_board(
     out
 }
 
+/// The frames of a board campaign: per station and frame, every board placed at its true centre
+/// (board height + `height_err`) and logged at that centre with the board's nominal height and a
+/// jitter of `pos_sigma` per axis; `per_board(rng, board, true centre, logged centre, yaw,
+/// measured, simulated)` adds the board's detections to either side. 10 % of the measured frames
+/// are dropped. Writes `sv.osi`, `meas.osi` and `model.osi` into `dir`; returns the frame count
+/// and the dropped frames.
+fn write_board_frames(
+    dir: &Path,
+    design: &LidarDesign,
+    height_err: &[f64],
+    pos_sigma: f64,
+    rng: &mut Rng,
+    mut per_board: impl FnMut(
+        &mut Rng,
+        &Board,
+        DVec3,
+        DVec3,
+        f64,
+        &mut Vec<osi3::LidarDetection>,
+        &mut Vec<osi3::LidarDetection>,
+    ),
+) -> anyhow::Result<(u64, usize)> {
+    let h_s = LIDAR_MOUNT_H;
+    let mut views = Vec::new();
+    let mut meas = Vec::new();
+    let mut sims = Vec::new();
+    let mut frame = 0u64;
+    let mut dropped = 0usize;
+    for st in &design.stations {
+        for _ in 0..design.frames_per_station {
+            let mut logged = Vec::new();
+            let mut m_dets = Vec::new();
+            let mut s_dets = Vec::new();
+            for &(bi, r, az_deg) in st {
+                let b = &design.boards[bi];
+                let az = az_deg.to_radians();
+                let yaw = az + PI;
+                let c_true = DVec3::new(r * az.cos(), r * az.sin(), b.z + height_err[bi]);
+                let jitter = DVec3::new(rng.normal(), rng.normal(), rng.normal()) * pos_sigma;
+                let c_log = DVec3::new(c_true.x, c_true.y, b.z) + jitter;
+                logged.push(LoggedBox {
+                    id: b.id,
+                    centre: c_log,
+                    dims: DVec3::new(0.01, b.width, b.height),
+                    yaw,
+                    model_reference: format!(
+                        "osiris:board?width_m={}&height_m={}&thickness_m=0.01&material=lambertian_{}&mount=none",
+                        b.width, b.height, b.refl_label
+                    ),
+                });
+                per_board(rng, b, c_true, c_log, yaw, &mut m_dets, &mut s_dets);
+            }
+            views.push(sensor_view(frame, h_s, &logged));
+            sims.push(sensor_data_lidar(frame, h_s, s_dets));
+            if rng.uniform() < 0.10 {
+                dropped += 1;
+            } else {
+                meas.push(sensor_data_lidar(frame, h_s, m_dets));
+            }
+            frame += 1;
+        }
+    }
+    write_trace(&dir.join("sv.osi"), &views)?;
+    write_trace(&dir.join("meas.osi"), &meas)?;
+    write_trace(&dir.join("model.osi"), &sims)?;
+    Ok((frame, dropped))
+}
+
+/// Appends the boards' `[[target]]` tables to the campaign's `toml`, writes `consistency.toml`
+/// into `dir` and names what was written (`hidden`: the case).
+fn finish_board_campaign(
+    dir: &Path,
+    mut toml: String,
+    design: &LidarDesign,
+    hidden: &str,
+    frames: u64,
+    dropped: usize,
+) -> anyhow::Result<Written> {
+    for b in &design.boards {
+        let _ = writeln!(
+            toml,
+            "[[target]]\nid = {}\nkind = \"board\"\nreflectivity_pct = {}\nsize_m = [{}, {}]\nmaterial = \"lambertian_{}\"\norientation = \"facing the sensor\"\n",
+            b.id, b.refl_label, b.width, b.height, b.refl_label
+        );
+    }
+    let meta = dir.join("consistency.toml");
+    std::fs::write(&meta, toml)?;
+    Ok(Written {
+        meta,
+        model_trace: dir.join("model.osi"),
+        hidden: hidden.into(),
+        frames: frames as usize,
+        dropped_frames: dropped,
+    })
+}
+
 /// Writes a LiDAR campaign for `case` and `seed` into `dir`.
 pub fn lidar_campaign(case: LidarCase, seed: u64, dir: &Path) -> anyhow::Result<Written> {
     std::fs::create_dir_all(dir)?;
@@ -1242,81 +1338,49 @@ pub fn lidar_campaign(case: LidarCase, seed: u64, dir: &Path) -> anyhow::Result<
         .map(|_| rng.range(-0.02, 0.02))
         .collect();
 
-    let mut views = Vec::new();
-    let mut meas = Vec::new();
-    let mut sims = Vec::new();
-    let mut frame = 0u64;
-    let mut dropped = 0usize;
-    for st in &design.stations {
-        for _ in 0..design.frames_per_station {
-            let mut logged = Vec::new();
-            let mut m_dets = Vec::new();
-            let mut s_dets = Vec::new();
-            for &(bi, r, az_deg) in st {
-                let b = &design.boards[bi];
-                let az = az_deg.to_radians();
-                let yaw = az + PI;
-                let c_true = DVec3::new(r * az.cos(), r * az.sin(), b.z + height_err[bi]);
-                let jitter = DVec3::new(rng.normal(), rng.normal(), rng.normal()) * pos_sigma;
-                let c_log = DVec3::new(c_true.x, c_true.y, b.z) + jitter;
-                logged.push(LoggedBox {
-                    id: b.id,
-                    centre: c_log,
-                    dims: DVec3::new(0.01, b.width, b.height),
-                    yaw,
-                    model_reference: format!(
-                        "osiris:board?width_m={}&height_m={}&thickness_m=0.01&material=lambertian_{}&mount=none",
-                        b.width, b.height, b.refl_label
-                    ),
+    let (frame, dropped) = write_board_frames(
+        dir,
+        &design,
+        &height_err,
+        pos_sigma,
+        &mut rng,
+        |rng, b, c_true, c_log, yaw, m_dets, s_dets| {
+            for ret in trace_board(&model, o, c_log, yaw, b.width, b.height, b.refl_label) {
+                if ret.power < LIDAR_THRESHOLD {
+                    continue;
+                }
+                let intensity = (100.0 * ret.power * ret.range * ret.range).round();
+                s_dets.push(osi3::LidarDetection {
+                    object_id: ident(b.id),
+                    beam_id: ident(ret.beam),
+                    position: spherical(ret.dir * ret.range),
+                    intensity: Some(intensity),
+                    existence_probability: Some(1.0),
+                    ..Default::default()
                 });
-                for ret in trace_board(&model, o, c_log, yaw, b.width, b.height, b.refl_label) {
-                    if ret.power < LIDAR_THRESHOLD {
-                        continue;
-                    }
-                    let intensity = (100.0 * ret.power * ret.range * ret.range).round();
-                    s_dets.push(osi3::LidarDetection {
-                        object_id: ident(b.id),
-                        beam_id: ident(ret.beam),
-                        position: spherical(ret.dir * ret.range),
-                        intensity: Some(intensity),
-                        existence_probability: Some(1.0),
-                        ..Default::default()
-                    });
-                }
-                for ret in trace_board(&truth, o, c_true, yaw, b.width, b.height, b.refl_true) {
-                    // Speckle / shot noise: 5 % of the power, plus 0.3 % reflectivity-equivalent
-                    // additive noise at the reference range.
-                    let p = ret.power * (1.0 + 0.05 * rng.normal())
-                        + 0.003 * 0.1 / (100.0 * 100.0) * rng.normal();
-                    if p < LIDAR_THRESHOLD {
-                        continue;
-                    }
-                    let r_m = ret.range + range_offset + 0.02 * rng.normal();
-                    let intensity = (100.0 * p * ret.range * ret.range * undb(cal_db))
-                        .round()
-                        .clamp(0.0, 255.0);
-                    m_dets.push(osi3::LidarDetection {
-                        beam_id: ident(ret.beam),
-                        position: spherical(ret.dir * r_m),
-                        intensity: Some(intensity),
-                        existence_probability: Some(1.0),
-                        ..Default::default()
-                    });
-                }
             }
-            views.push(sensor_view(frame, h_s, &logged));
-            sims.push(sensor_data_lidar(frame, h_s, s_dets));
-            if rng.uniform() < 0.10 {
-                dropped += 1;
-            } else {
-                meas.push(sensor_data_lidar(frame, h_s, m_dets));
+            for ret in trace_board(&truth, o, c_true, yaw, b.width, b.height, b.refl_true) {
+                // Speckle / shot noise: 5 % of the power, plus 0.3 % reflectivity-equivalent
+                // additive noise at the reference range.
+                let p = ret.power * (1.0 + 0.05 * rng.normal())
+                    + 0.003 * 0.1 / (100.0 * 100.0) * rng.normal();
+                if p < LIDAR_THRESHOLD {
+                    continue;
+                }
+                let r_m = ret.range + range_offset + 0.02 * rng.normal();
+                let intensity = (100.0 * p * ret.range * ret.range * undb(cal_db))
+                    .round()
+                    .clamp(0.0, 255.0);
+                m_dets.push(osi3::LidarDetection {
+                    beam_id: ident(ret.beam),
+                    position: spherical(ret.dir * r_m),
+                    intensity: Some(intensity),
+                    existence_probability: Some(1.0),
+                    ..Default::default()
+                });
             }
-            frame += 1;
-        }
-    }
-    write_trace(&dir.join("sv.osi"), &views)?;
-    write_trace(&dir.join("meas.osi"), &meas)?;
-    write_trace(&dir.join("model.osi"), &sims)?;
+        },
+    )?;
 
     let mut toml = String::new();
     let fog = if design.fog_vis_m.is_finite() {
@@ -1368,22 +1432,7 @@ sensor_data = "meas.osi"
         mx = HOST_LEN / 2.0,
         mz = h_s - HOST_H / 2.0,
     );
-    for b in &design.boards {
-        let _ = writeln!(
-            toml,
-            "[[target]]\nid = {}\nkind = \"board\"\nreflectivity_pct = {}\nsize_m = [{}, {}]\nmaterial = \"lambertian_{}\"\norientation = \"facing the sensor\"\n",
-            b.id, b.refl_label, b.width, b.height, b.refl_label
-        );
-    }
-    let meta = dir.join("consistency.toml");
-    std::fs::write(&meta, toml)?;
-    Ok(Written {
-        meta,
-        model_trace: dir.join("model.osi"),
-        hidden: case.name().into(),
-        frames: frame as usize,
-        dropped_frames: dropped,
-    })
+    finish_board_campaign(dir, toml, &design, case.name(), frame, dropped)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1507,73 +1556,41 @@ pub fn fmcw_lidar_campaign(case: FmcwCase, seed: u64, dir: &Path) -> anyhow::Res
         out
     }
 
-    let mut views = Vec::new();
-    let mut meas = Vec::new();
-    let mut sims = Vec::new();
-    let mut frame = 0u64;
-    let mut dropped = 0usize;
-    for st in &design.stations {
-        for _ in 0..design.frames_per_station {
-            let mut logged = Vec::new();
-            let mut m_dets = Vec::new();
-            let mut s_dets = Vec::new();
-            for &(bi, r, az_deg) in st {
-                let b = &design.boards[bi];
-                let az = az_deg.to_radians();
-                let yaw = az + PI;
-                let c_true = DVec3::new(r * az.cos(), r * az.sin(), b.z + height_err[bi]);
-                let jitter = DVec3::new(rng.normal(), rng.normal(), rng.normal()) * pos_sigma;
-                let c_log = DVec3::new(c_true.x, c_true.y, b.z) + jitter;
-                logged.push(LoggedBox {
-                    id: b.id,
-                    centre: c_log,
-                    dims: DVec3::new(0.01, b.width, b.height),
-                    yaw,
-                    model_reference: format!(
-                        "osiris:board?width_m={}&height_m={}&thickness_m=0.01&material=lambertian_{}&mount=none",
-                        b.width, b.height, b.refl_label
-                    ),
-                });
-                s_dets.extend(returns(
-                    &mut rng,
-                    case,
-                    false,
-                    &geometry,
-                    o,
-                    c_log,
-                    yaw,
-                    b,
-                    1.0,
-                    0.0,
-                    Some(b.id),
-                ));
-                m_dets.extend(returns(
-                    &mut rng,
-                    case,
-                    true,
-                    &geometry,
-                    o,
-                    c_true,
-                    yaw,
-                    b,
-                    undb(cal_db),
-                    range_offset,
-                    None,
-                ));
-            }
-            views.push(sensor_view(frame, h_s, &logged));
-            sims.push(sensor_data_lidar(frame, h_s, s_dets));
-            if rng.uniform() < 0.10 {
-                dropped += 1;
-            } else {
-                meas.push(sensor_data_lidar(frame, h_s, m_dets));
-            }
-            frame += 1;
-        }
-    }
-    write_trace(&dir.join("sv.osi"), &views)?;
-    write_trace(&dir.join("meas.osi"), &meas)?;
-    write_trace(&dir.join("model.osi"), &sims)?;
+    let (frame, dropped) = write_board_frames(
+        dir,
+        &design,
+        &height_err,
+        pos_sigma,
+        &mut rng,
+        |rng, b, c_true, c_log, yaw, m_dets, s_dets| {
+            s_dets.extend(returns(
+                rng,
+                case,
+                false,
+                &geometry,
+                o,
+                c_log,
+                yaw,
+                b,
+                1.0,
+                0.0,
+                Some(b.id),
+            ));
+            m_dets.extend(returns(
+                rng,
+                case,
+                true,
+                &geometry,
+                o,
+                c_true,
+                yaw,
+                b,
+                undb(cal_db),
+                range_offset,
+                None,
+            ));
+        },
+    )?;
 
     let mut toml = String::new();
     let _ = writeln!(
@@ -1622,20 +1639,5 @@ sensor_data = "meas.osi"
         mx = HOST_LEN / 2.0,
         mz = h_s - HOST_H / 2.0,
     );
-    for b in &design.boards {
-        let _ = writeln!(
-            toml,
-            "[[target]]\nid = {}\nkind = \"board\"\nreflectivity_pct = {}\nsize_m = [{}, {}]\nmaterial = \"lambertian_{}\"\norientation = \"facing the sensor\"\n",
-            b.id, b.refl_label, b.width, b.height, b.refl_label
-        );
-    }
-    let meta = dir.join("consistency.toml");
-    std::fs::write(&meta, toml)?;
-    Ok(Written {
-        meta,
-        model_trace: dir.join("model.osi"),
-        hidden: case.name().into(),
-        frames: frame as usize,
-        dropped_frames: dropped,
-    })
+    finish_board_campaign(dir, toml, &design, case.name(), frame, dropped)
 }

@@ -940,11 +940,7 @@ impl Physics for LidarPhysics {
     }
 
     fn last_truth_of(&self, tracking_id: u64) -> Option<u64> {
-        self.recognition
-            .reported_ground_truth()
-            .iter()
-            .find(|r| r.0 == tracking_id)
-            .and_then(|r| r.1)
+        crate::recognition::last_truth_of(self.recognition.reported_ground_truth(), tracking_id)
     }
 
     fn reset(&mut self) {

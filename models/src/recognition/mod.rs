@@ -18,6 +18,16 @@ use glam::DVec3;
 
 use crate::frames::Pose;
 
+/// The ground truth a track had at its last update, from a recogniser's reported
+/// `(tracking id, ground truth)` pairs (`LidarRecognition::reported_ground_truth`,
+/// `RadarRecognition::reported_ground_truth`): what the OSI semantics need for a coasting track.
+pub fn last_truth_of(reported: &[(u64, Option<u64>)], tracking_id: u64) -> Option<u64> {
+    reported
+        .iter()
+        .find(|r| r.0 == tracking_id)
+        .and_then(|r| r.1)
+}
+
 /// The sensor's motion at the measurement time, for ego-motion compensation and for tracking in a
 /// fixed frame.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -130,3 +130,27 @@ pub fn run_chain(
     chain.run(paths, seed, &mut out);
     out
 }
+
+// ---------------------------------------------------------------------------------------------
+// LiDAR
+
+/// One step of a fresh LiDAR model of `cfg` on `view` at t = 1 s (step 0.1 s): the output and the
+/// model.
+pub fn lidar_step(
+    cfg: osiris_models::SensorConfig,
+    view: &osi3::SensorView,
+) -> (osiris_models::StepOutput, osiris_models::lidar::LidarSensor) {
+    use osiris_models::SensorModel;
+    let mut s = osiris_models::lidar::LidarSensor::new(cfg).expect("valid config");
+    let mut out = osiris_models::StepOutput::default();
+    s.step(
+        &osiris_models::StepInput {
+            view,
+            time_s: 1.0,
+            step_s: 0.1,
+        },
+        &mut out,
+    )
+    .expect("step");
+    (out, s)
+}
