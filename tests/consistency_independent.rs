@@ -264,6 +264,14 @@ fn lidar_vertical_divergence() {
 }
 
 #[test]
+fn lidar_detector_saturation() {
+    lidar(
+        LidarCase::Saturation,
+        Expect::Effect("lidar.detector_saturation"),
+    );
+}
+
+#[test]
 fn lidar_null() {
     lidar(LidarCase::Null, Expect::Consistent);
 }

@@ -440,8 +440,6 @@ pub(crate) fn analyse_paired(
         paired.paired_frames,
         paired.rows.len()
     );
-    let (metric_list, stats) = metrics::verdict_metrics(campaign, &paired.rows, &paired.counts);
-    let error_raw: BTreeMap<String, f64> = stats.iter().map(|(q, s)| (q.clone(), s.rms)).collect();
     // Held-out split (the closed-loop comparison): whole targets, or stations where the targets
     // are too few or too distinct to hold one out ([`Holdout`]).
     let holdout = super::split::holdout(campaign, &paired.rows);
@@ -499,23 +497,45 @@ pub(crate) fn analyse_paired(
         .copied()
         .collect();
     let attribution = attribution::attribute(campaign, catalogue, &train);
-    // Headline errors: RMS after removing the calibration offset fitted on the training split (the
-    // offset is a nuisance, reported in `attribution[].calibration_offset`, not an error to chase).
-    let offset_of = |q: &str| -> f64 {
+    // The calibration offsets fitted on the training split are a nuisance (reported in
+    // `attribution[].calibration_offset`, not an error to chase): the verdict and the headline
+    // errors judge the residuals after removing them; the raw RMS is reported beside.
+    let calibration = metrics::Calibration::new(
         attribution
             .iter()
-            .find(|a| a.quantity == q)
-            .and_then(|a| a.calibration_offset)
-            .map(|c| c[0])
-            .unwrap_or(0.0)
-    };
+            .filter_map(|a| a.calibration_offset.map(|c| (a.quantity.to_string(), c[0]))),
+    );
+    let (metric_list, stats) =
+        metrics::verdict_metrics(campaign, &paired.rows, &paired.counts, &calibration);
+    let error_raw: BTreeMap<String, f64> = stats.iter().map(|(q, s)| (q.clone(), s.rms)).collect();
+    for m in &metric_list {
+        // A tolerance met only once the calibration is removed: say so.
+        if let (Some(c), Some(raw)) = (m.calibration, m.raw_value)
+            && raw > m.tolerance
+            && m.pass
+        {
+            let q = m.id.strip_suffix(".rms").unwrap_or(&m.id);
+            let unit = if q == super::quantity::INTENSITY_PCT {
+                "dB of gain"
+            } else {
+                m.unit
+            };
+            warnings.push(format!(
+                "{q}: the measurement's calibration differs from the model's by {c:.3} {unit} (a \
+                 fitted nuisance, removed before the verdict): raw RMS {raw:.3} {u} against the \
+                 tolerance {t} {u}, {v:.3} {u} after removing it; check the sensor's calibration",
+                u = m.unit,
+                t = m.tolerance,
+                v = m.value,
+            ));
+        }
+    }
     let rms_of = |q: &str, held_out: bool| -> Option<f64> {
-        let off = offset_of(q);
         let r: Vec<f64> = paired
             .rows
             .iter()
             .filter(|r| r.quantity == q && (!held_out || holdout.contains(r)))
-            .map(|r| r.resid() - off)
+            .map(|r| calibration.residual(r))
             .collect();
         (!r.is_empty()).then(|| (r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64).sqrt())
     };

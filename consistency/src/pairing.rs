@@ -1012,6 +1012,15 @@ fn lidar_frame(
             let db = 10.0 * (im.max(0.01) / is.max(0.01)).log10();
             let mut x = x0;
             x[super::V_SIM] = is;
+            // The point's received-power proxy, dB: its simulated intensity, less 20·log10 R
+            // where the logged intensity is range-compensated reflectivity (what a receiver's
+            // saturation acts on).
+            x[super::V_PRX] = 10.0 * is.max(1e-3).log10()
+                - if power_semantics {
+                    0.0
+                } else {
+                    20.0 * rs.max(0.1).log10()
+                };
             out.rows.push(Row {
                 quantity: quantity::INTENSITY_DB,
                 frame,

@@ -619,12 +619,12 @@ pub fn html(
         h.push_str("</table>");
     }
     // Verdict table.
-    h.push_str("<h2>Verdict</h2><table><tr><th>metric</th><th>value</th><th>95 % CI</th><th>tolerance</th><th>n</th><th>status</th></tr>");
+    h.push_str("<h2>Verdict</h2><p>Residual RMS after removing the fitted calibration (a nuisance; the raw RMS and the calibration beside it).</p><table><tr><th>metric</th><th>value</th><th>95 % CI</th><th>tolerance</th><th>raw RMS</th><th>calibration removed</th><th>n</th><th>status</th></tr>");
     let first_fail = summary.metrics.iter().position(|m| !m.pass);
     for (i, m) in summary.metrics.iter().enumerate() {
         let _ = write!(
             h,
-            "<tr{}><td>{}</td><td>{} {}</td><td>[{}, {}]</td><td>{}</td><td>{}</td><td class=\"{}\">{}</td></tr>",
+            "<tr{}><td>{}</td><td>{} {}</td><td>[{}, {}]</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"{}\">{}</td></tr>",
             if Some(i) == first_fail {
                 " style=\"outline:2px solid #c62828\""
             } else {
@@ -636,6 +636,12 @@ pub fn html(
             fmt(m.ci[0]),
             fmt(m.ci[1]),
             fmt(m.tolerance),
+            m.raw_value.map(fmt).unwrap_or_else(|| "–".into()),
+            match m.calibration {
+                Some(c) if m.id.starts_with("intensity_pct") => format!("{} dB gain", fmt(c)),
+                Some(c) => format!("{} {}", fmt(c), m.unit),
+                None => "–".into(),
+            },
             m.n,
             if m.pass { "pass" } else { "fail" },
             if m.pass { "pass" } else { "fail" }

@@ -911,15 +911,19 @@ pub enum LidarCase {
     Null,
     /// The boards' true reflectivities are off their labels by a random factor per board.
     OutOfCatalogue,
+    /// The receiver's linear range ends at a received power P_sat: the measured echo is
+    /// min(P, P_sat) (APD / TIA clipping); the model's receiver is linear.
+    Saturation,
 }
 
 impl LidarCase {
-    pub const ALL: [LidarCase; 5] = [
+    pub const ALL: [LidarCase; 6] = [
         LidarCase::Overlap,
         LidarCase::Fog,
         LidarCase::VerticalDivergence,
         LidarCase::Null,
         LidarCase::OutOfCatalogue,
+        LidarCase::Saturation,
     ];
     pub fn name(self) -> &'static str {
         match self {
@@ -928,6 +932,7 @@ impl LidarCase {
             LidarCase::VerticalDivergence => "vertical_divergence",
             LidarCase::Null => "null",
             LidarCase::OutOfCatalogue => "out_of_catalogue",
+            LidarCase::Saturation => "saturation",
         }
     }
 }
@@ -941,6 +946,10 @@ pub const LIDAR_COL_STEP_DEG: f64 = 0.4;
 /// vertical one is the larger, GUESSED, so the DIVP "vertical divergence" effect is visible).
 pub const LIDAR_DIV_H_MRAD: f64 = 1.5;
 pub const LIDAR_DIV_V_MRAD: f64 = 3.0;
+/// Saturation power of the `Saturation` case, in the units of the threshold below: the echo of a
+/// 50 % board at 10 m (GUESSED: a 90 % board clips inside 13.4 m, a 10 % one inside 4.5 m).
+pub const LIDAR_SATURATION_POWER: f64 = 0.5 / (10.0 * 10.0);
+
 /// Detection threshold on ρ·f·cosα·O·T²/R² (a 10 % board is detected to 100 m in clear air).
 pub const LIDAR_THRESHOLD: f64 = 0.1 / (100.0 * 100.0);
 /// Sensor height, m (roof).
@@ -1090,7 +1099,7 @@ fn lidar_design(case: LidarCase, rng: &mut Rng) -> LidarDesign {
                 fog_vis_m: f64::INFINITY,
             }
         }
-        LidarCase::Null | LidarCase::OutOfCatalogue => {
+        LidarCase::Null | LidarCase::OutOfCatalogue | LidarCase::Saturation => {
             let ranges: Vec<f64> = (0..10).map(|k| 5.0 + 5.0 * k as f64).collect();
             let mut boards = vec![
                 board(200, 0.5, 0.5, 10.0, 1.4),
@@ -1362,8 +1371,11 @@ pub fn lidar_campaign(case: LidarCase, seed: u64, dir: &Path) -> anyhow::Result<
             for ret in trace_board(&truth, o, c_true, yaw, b.width, b.height, b.refl_true) {
                 // Speckle / shot noise: 5 % of the power, plus 0.3 % reflectivity-equivalent
                 // additive noise at the reference range.
-                let p = ret.power * (1.0 + 0.05 * rng.normal())
+                let mut p = ret.power * (1.0 + 0.05 * rng.normal())
                     + 0.003 * 0.1 / (100.0 * 100.0) * rng.normal();
+                if case == LidarCase::Saturation {
+                    p = p.min(LIDAR_SATURATION_POWER);
+                }
                 if p < LIDAR_THRESHOLD {
                     continue;
                 }
