@@ -336,3 +336,89 @@ fn sunlight_changes_the_fmcw_points_less_than_their_noise_but_blinds_the_pulsed_
         "pulsed: day {p_day_n:?} vs night {p_night_n:?}"
     );
 }
+
+/// Runs `cycles` steps of one LiDAR on a car at `p0` moving at `v_car` (sensor static at the
+/// origin, 1 m up); returns, for the first cycle that reports the car, (cycle, reported velocity in
+/// the sensor frame).
+fn first_report(lidar: LidarConfig, p0: [f64; 3], v_car: [f64; 3], cycles: u32) -> (u32, DVec3) {
+    use osiris_models::SensorModel;
+    let mut sensor =
+        osiris_models::lidar::LidarSensor::new(config(lidar, &[], [0.0, 0.0, 1.0])).unwrap();
+    let yaw = v_car[1].atan2(v_car[0]);
+    for k in 0..cycles {
+        let t = 1.0 + 0.1 * f64::from(k);
+        let pos = [
+            p0[0] + v_car[0] * (t - 1.0),
+            p0[1] + v_car[1] * (t - 1.0),
+            p0[2],
+        ];
+        let mut v = view(vec![], vec![car(5, pos, yaw, v_car)], None);
+        let ts = osi3::Timestamp {
+            seconds: Some(1),
+            nanos: Some(100_000_000 * k),
+        };
+        v.timestamp = Some(ts);
+        v.global_ground_truth.as_mut().unwrap().timestamp = Some(ts);
+        let mut out = StepOutput::default();
+        sensor
+            .step(
+                &osiris_models::StepInput {
+                    view: &v,
+                    time_s: t,
+                    step_s: 0.1,
+                },
+                &mut out,
+            )
+            .unwrap();
+        if let Some(o) = out.sensor_data.moving_object.first() {
+            let vel = o.base.as_ref().unwrap().velocity.unwrap();
+            return (
+                k,
+                DVec3::new(vel.x.unwrap(), vel.y.unwrap(), vel.z.unwrap_or(0.0)),
+            );
+        }
+    }
+    panic!("the car was never reported in {cycles} cycles");
+}
+
+#[test]
+fn doppler_gives_a_new_object_its_velocity_on_its_first_report() {
+    // A car 30 m ahead, crossing and approaching at (−6, 3) m/s. The recognition measures each
+    // box's velocity from its points' Doppler (d̂·v = ṙ + d̂·v_s, least squares over the points):
+    // on the first cycle the track is reported, the velocity along the line of sight is within
+    // 0.2 m/s of the truth and the whole vector within 0.5 m/s (measured: 0.002 and 0.07 m/s). The pulsed chain starts its tracks
+    // at rest and has only a few position updates by then: its first report is off by more (5.2 m/s
+    // measured; with `doppler_velocity` off the FMCW chain's is off by 1.1 m/s and fails the test).
+    let (p0, v_car) = ([30.0, 0.0, 0.75], [-6.0, 3.0, 0.0]);
+    let scan = || {
+        ScanPattern::Flash(FlashPattern {
+            rows: 12,
+            cols: 48,
+            fov_horizontal_rad: 14f64.to_radians(),
+            fov_vertical_rad: 3f64.to_radians(),
+            centre_rad: [0.0, 0.0],
+        })
+    };
+    let (k, v) = first_report(fmcw(scan(), 1024), p0, v_car, 8);
+    let truth = DVec3::from(v_car);
+    let pos = DVec3::from(p0) + truth * 0.1 * f64::from(k) - DVec3::new(0.0, 0.0, 1.0);
+    let los = pos.normalize();
+    let radial_err = (v - truth).dot(los);
+    assert!(
+        radial_err.abs() < 0.2,
+        "FMCW first report (cycle {k}): velocity {v}, truth {truth}, radial error {radial_err}"
+    );
+    assert!(
+        (v - truth).length() < 0.5,
+        "FMCW first report (cycle {k}): velocity {v}, truth {truth}"
+    );
+    let pulsed = LidarConfig {
+        scan: Some(scan()),
+        ..Default::default()
+    };
+    let (kp, vp) = first_report(pulsed, p0, v_car, 8);
+    assert!(
+        (vp - truth).length() > (v - truth).length(),
+        "pulsed first report (cycle {kp}) {vp} vs FMCW {v}, truth {truth}"
+    );
+}

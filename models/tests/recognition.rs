@@ -108,6 +108,7 @@ fn lidar_scan(sensor_pos: DVec3, ground: [f64; 3], boxes: &[Boxx], seed: u64) ->
                 pts.push(LidarPoint {
                     position_m: d * t,
                     intensity: 50.0,
+                    range_rate_m_s: None,
                     object_id: id,
                 });
             }

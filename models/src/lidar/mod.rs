@@ -844,6 +844,7 @@ impl Physics for LidarPhysics {
             .extend(chunks.iter().flatten().map(|p| LidarPoint {
                 position_m: p.position_m,
                 intensity: p.intensity,
+                range_rate_m_s: p.range_rate_m_s,
                 object_id: p.object_id,
             }));
         self.moving.clear();

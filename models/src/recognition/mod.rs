@@ -49,6 +49,9 @@ pub struct LidarPoint {
     pub position_m: DVec3,
     /// Intensity on the sensor's scale.
     pub intensity: f32,
+    /// Range rate (FMCW LiDAR: the Doppler of the point), m/s, positive receding; `None` for a
+    /// pulsed LiDAR.
+    pub range_rate_m_s: Option<f32>,
     /// Ground-truth object of the point (simulation bookkeeping, only copied into
     /// `ground_truth_id`; never used by the algorithms). `osiris_proto::INVALID_ID` = none.
     pub object_id: u64,

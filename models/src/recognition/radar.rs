@@ -552,6 +552,7 @@ impl RadarRecognition {
             self.measurements.push(Measurement {
                 position_m: [cl.position_m.x, cl.position_m.y],
                 position_cov_m2: cov,
+                velocity: None,
                 radial: Some(RadialVelocity {
                     value_m_s: cl.range_rate_m_s,
                     direction: [u.x, u.y],

@@ -178,6 +178,17 @@ pub struct RadialVelocity {
     pub variance_m2_s2: f64,
 }
 
+/// Ego-compensated velocity measured in one cycle (an FMCW LiDAR object's velocity from the Doppler
+/// of its points).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VelocityMeasurement {
+    /// Horizontal velocity, fixed frame, m/s.
+    pub value_m_s: [f64; 2],
+    /// Its covariance, m²/s² (ill-determined across the line of sight when the object spans a
+    /// small angle).
+    pub cov_m2_s2: [[f64; 2]; 2],
+}
+
 /// One measurement (a LiDAR box centre, a radar cluster) in the fixed frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Measurement {
@@ -187,6 +198,8 @@ pub struct Measurement {
     pub position_cov_m2: [[f64; 2]; 2],
     /// Radial velocity (radar).
     pub radial: Option<RadialVelocity>,
+    /// Velocity (FMCW LiDAR).
+    pub velocity: Option<VelocityMeasurement>,
 }
 
 /// 4×4 matrix, row-major.
@@ -352,6 +365,9 @@ impl<A> Tracker<A> {
         update_position(&mut t.x, &mut t.p, m.position_m, m.position_cov_m2);
         if let Some(rv) = m.radial {
             update_radial(&mut t.x, &mut t.p, &rv);
+        }
+        if let Some(v) = m.velocity {
+            update_velocity(&mut t.x, &mut t.p, v.value_m_s, v.cov_m2_s2);
         }
         t.updated = true;
     }
@@ -591,24 +607,34 @@ fn solve3(a: &[[f64; 3]; 3], b: &[f64; 3]) -> Option<([f64; 3], f64)> {
 /// Linear KF update with a position measurement (`H = [I₂ 0]`), Joseph-free form with
 /// symmetrisation.
 pub fn update_position(x: &mut [f64; 4], p: &mut Mat4, z: [f64; 2], r: [[f64; 2]; 2]) {
+    update_pair(x, p, 0, z, r);
+}
+
+/// Linear KF update with a velocity measurement (`H = [0 I₂]`).
+pub fn update_velocity(x: &mut [f64; 4], p: &mut Mat4, z: [f64; 2], r: [[f64; 2]; 2]) {
+    update_pair(x, p, 2, z, r);
+}
+
+/// Linear KF update with a measurement of the state pair `(x[o], x[o + 1])`.
+fn update_pair(x: &mut [f64; 4], p: &mut Mat4, o: usize, z: [f64; 2], r: [[f64; 2]; 2]) {
     let s = [
-        [p[0][0] + r[0][0], p[0][1] + r[0][1]],
-        [p[1][0] + r[1][0], p[1][1] + r[1][1]],
+        [p[o][o] + r[0][0], p[o][o + 1] + r[0][1]],
+        [p[o + 1][o] + r[1][0], p[o + 1][o + 1] + r[1][1]],
     ];
     let Some((si, _)) = inv2(s) else { return };
-    let y = [z[0] - x[0], z[1] - x[1]];
+    let y = [z[0] - x[o], z[1] - x[o + 1]];
     // K = P Hᵀ S⁻¹: 4×2.
     let mut k = [[0.0; 2]; 4];
     for (i, ki) in k.iter_mut().enumerate() {
         for j in 0..2 {
-            ki[j] = p[i][0] * si[0][j] + p[i][1] * si[1][j];
+            ki[j] = p[i][o] * si[0][j] + p[i][o + 1] * si[1][j];
         }
     }
     for i in 0..4 {
         x[i] += k[i][0] * y[0] + k[i][1] * y[1];
     }
-    // P ← P − K H P (H P = first two rows of P).
-    let hp = [p[0], p[1]];
+    // P ← P − K H P (H P = rows o and o + 1 of P).
+    let hp = [p[o], p[o + 1]];
     for i in 0..4 {
         for j in 0..4 {
             p[i][j] -= k[i][0] * hp[0][j] + k[i][1] * hp[1][j];
