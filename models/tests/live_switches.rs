@@ -70,6 +70,7 @@ const CASES: &[(&str, Bench)] = &[
     ("lidar.fmcw_speckle", Bench::Fmcw),
     ("lidar.fmcw_phase_noise", Bench::Fmcw),
     ("lidar.fmcw_chirp_nonlinearity", Bench::Fmcw),
+    ("lidar.fmcw_ego_doppler", Bench::Fmcw),
     // Radar.
     ("radar.two_way_spreading", Bench::Radar),
     ("radar.rcs_area_scaling", Bench::Radar),
@@ -560,7 +561,15 @@ fn fmcw_config() -> SensorConfig {
 
 #[test]
 fn fmcw_switches_are_live() {
-    let v = lidar_view();
+    // The LiDAR scene on a host driving at 5 m/s (the sensor's own Doppler exists).
+    let mut v = lidar_view();
+    let host = 99;
+    v.global_ground_truth
+        .as_mut()
+        .unwrap()
+        .moving_object
+        .push(car(host, [0.0, 0.0, 0.75], [5.0, 0.0, 0.0]));
+    v.host_vehicle_id = Some(id(host));
     // Points with their range rates.
     let run = |c: SensorConfig| {
         let mut s = LidarSensor::new(c).expect("FMCW lidar config");

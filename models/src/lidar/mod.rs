@@ -308,6 +308,8 @@ pub struct LidarEngine {
     scan_motion: bool,
     mixed_pixels: bool,
     solar_background: bool,
+    /// `lidar.fmcw_ego_doppler`: range rates relative to the moving sensor.
+    ego_doppler: bool,
     t_max_m: f64,
     seed: u64,
     scratch: Mutex<Vec<Scratch>>,
@@ -405,6 +407,7 @@ impl LidarEngine {
             scan_motion: effects.is_on(&scan::SCAN_MOTION),
             mixed_pixels: effects.is_on(&beam::MIXED_PIXELS),
             solar_background: effects.is_on(&signal::SOLAR_BACKGROUND),
+            ego_doppler: effects.is_on(&fmcw::EGO_DOPPLER),
             t_max_m: range_m,
             seed,
             scratch: Mutex::new(Vec::new()),
@@ -553,8 +556,14 @@ impl LidarEngine {
                     let (key, object_id) = surface_key(&hit, input.scene);
                     if self.fmcw.is_some() {
                         // Doppler: the range rate of the hit point seen from the moving sensor
-                        // (the ray leaves the sensor origin, so its velocity is the sensor's).
-                        s.rates.push(d.dot(hit.velocity_m_s - input.velocity_m_s));
+                        // (the ray leaves the sensor origin, so its velocity is the sensor's;
+                        // `lidar.fmcw_ego_doppler` off: as if the sensor stood still).
+                        let v_s = if self.ego_doppler {
+                            input.velocity_m_s
+                        } else {
+                            DVec3::ZERO
+                        };
+                        s.rates.push(d.dot(hit.velocity_m_s - v_s));
                     }
                     s.tagged.push((
                         key,

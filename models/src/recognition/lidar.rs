@@ -107,7 +107,8 @@ pub struct LidarRecognitionConfig {
     /// velocity in one cycle ([`doppler_velocity`]): new tracks start with it, updates use it.
     pub doppler_velocity: bool,
     /// Floor of the standard deviation of one point's range rate, m/s (guessed: the FMCW preset's
-    /// velocity resolution λ/(2·T_c)·… is ≈ 0.08 m/s, its sub-bin scatter smaller).
+    /// velocity resolution λ/(2T_w) is 0.30 m/s, physics.md §2.8; sub-bin interpolation at a car's
+    /// SNR scatters one point's rate far less).
     pub range_rate_std_m_s: f64,
     /// RNG seed of RANSAC.
     pub seed: u64,
@@ -1244,7 +1245,11 @@ mod tests {
         assert!((m.value_m_s[1] - 2.0).abs() < 1e-9, "{:?}", m.value_m_s);
         // Along the line of sight (x) the variance is the floor over n; across it, larger by the
         // inverse spread of the bearings squared.
-        assert!(m.cov_m2_s2[1][1] > 50.0 * m.cov_m2_s2[0][0], "{:?}", m.cov_m2_s2);
+        assert!(
+            m.cov_m2_s2[1][1] > 50.0 * m.cov_m2_s2[0][0],
+            "{:?}",
+            m.cov_m2_s2
+        );
         // Points without a range rate (pulsed LiDAR), or all on one bearing: no velocity.
         let none: Vec<(DVec3, f64)> = pts.iter().map(|(p, _)| (*p, f64::NAN)).collect();
         assert!(doppler_velocity(&ego, none.into_iter(), 0.05, &mut rows).is_none());

@@ -73,8 +73,19 @@ pub const CHIRP_NONLINEARITY: EffectInfo = EffectInfo {
     requires: None,
 };
 
+/// `lidar.fmcw_ego_doppler`: the Doppler of the sensor's own motion.
+pub const EGO_DOPPLER: EffectInfo = EffectInfo {
+    name: "lidar.fmcw_ego_doppler",
+    default_on: true,
+    summary: "Doppler of the sensor's own motion: every point's range rate is d̂·(v_hit − v_s), so static \
+              points of a moving sensor carry −d̂·v_s (the signal ego-motion estimation uses) and the beat \
+              frequencies shift by 2ṙ/λ; off: ṙ = d̂·v_hit, as if the sensor stood still",
+    source: "physics.md §2.8 (f_D = 2ṙ/λ) and §6.1",
+    requires: None,
+};
+
 /// Effects declared by the FMCW chain.
-pub const EFFECTS: &[EffectInfo] = &[SPECKLE, PHASE_NOISE, CHIRP_NONLINEARITY];
+pub const EFFECTS: &[EffectInfo] = &[SPECKLE, PHASE_NOISE, CHIRP_NONLINEARITY, EGO_DOPPLER];
 
 /// The effects of the FMCW chain (the same as [`EFFECTS`]).
 pub fn effects() -> Vec<EffectInfo> {
