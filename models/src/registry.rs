@@ -55,8 +55,13 @@ pub struct SensorConfig {
     /// Physical LiDAR parameters (`kind: lidar`); absent: the defaults.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lidar: Option<LidarConfig>,
-    /// Physical radar parameters (`kind: radar`); absent: the defaults.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    /// Physical radar parameters (`kind: radar`); absent: the defaults. Its `preset` supplies
+    /// every key not given (`crate::radar::preset`).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "crate::radar::preset::deserialize_optional"
+    )]
     pub radar: Option<RadarConfig>,
     /// Physical camera parameters (`kind: camera`); absent: the defaults.
     #[serde(default, skip_serializing_if = "Option::is_none")]

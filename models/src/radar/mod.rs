@@ -17,6 +17,7 @@ pub mod antenna;
 pub mod baseband;
 pub mod bench;
 mod export;
+pub mod preset;
 pub mod processing;
 pub mod propagation;
 pub mod waveform;
@@ -66,6 +67,11 @@ pub struct PathReturn {
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RadarConfig {
+    /// The preset these values start from (`"awr1843"`, `"imaging"`; [`preset`]). In a JSON
+    /// configuration the preset supplies every key not given; in Rust, start from
+    /// [`preset::RadarPreset::config`].
+    #[serde(default)]
+    pub preset: preset::RadarPreset,
     /// Chirp sequence.
     #[serde(default)]
     pub waveform: waveform::WaveformConfig,

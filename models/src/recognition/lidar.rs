@@ -246,7 +246,7 @@ pub fn doppler_velocity(
         }
         let d = p - s;
         let r = d.length();
-        if !(r > 1e-6) {
+        if r.is_nan() || r <= 1e-6 {
             continue;
         }
         let d = d / r;
@@ -272,7 +272,7 @@ pub fn doppler_velocity(
         let det = sxx * syy - sxy * sxy;
         // The smaller eigenvalue of AᵀA relative to n: the spread of the bearings squared.
         let tr = sxx + syy;
-        if n < 3 || !(det > 1e-12 * tr * tr) {
+        if n < 3 || det.is_nan() || det <= 1e-12 * tr * tr {
             return None;
         }
         let v = [(syy * bx - sxy * by) / det, (sxx * by - sxy * bx) / det];
