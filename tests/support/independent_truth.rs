@@ -666,14 +666,18 @@ fn radar_design(case: RadarCase, rng: &mut Rng) -> RadarDesign {
             }
         }
         RadarCase::YawMisalignment => {
-            // Five azimuth slots ±16° and ranges 8–60 m: a yaw moves every target by one angle,
+            // Five azimuth slots ±16° and ranges 8–63 m: a yaw moves every target by one angle,
             // a lateral offset by one that falls as 1/R, an azimuth scale by one that grows with
             // the azimuth.
             let az = [-16.0, -8.0, 0.0, 8.0, 16.0];
             for k in 0..30usize {
                 let r = 8.0 + 52.0 * k as f64 / 29.0;
+                // 0 / 1.5 / 3 m apart in range: a radar that cannot resolve 8° in azimuth still
+                // sees each reflector on its own.
                 stations.push(RadarStation {
-                    placed: (0..3).map(|i| (i, r, az[(2 * i + k) % 5])).collect(),
+                    placed: (0..3)
+                        .map(|i| (i, r + 1.5 * i as f64, az[(2 * i + k) % 5]))
+                        .collect(),
                 });
             }
             RadarDesign {
@@ -1558,6 +1562,11 @@ impl FmcwCase {
 /// The LiDAR's mounting on the host (x, z), m, as the campaigns write it.
 pub fn lidar_mounting() -> (f64, f64) {
     (HOST_LEN / 2.0, LIDAR_MOUNT_H - HOST_H / 2.0)
+}
+
+/// The radar's mounting (x, z) on the host, m (as in the campaigns' `consistency.toml`).
+pub fn radar_mounting() -> (f64, f64) {
+    (HOST_LEN / 2.0, RADAR_MOUNT_H - HOST_H / 2.0)
 }
 
 /// Laser linewidth of the phase-noise case, Hz (GUESSED: a DFB-class laser; −2.7 dB at 50 m).
