@@ -213,6 +213,23 @@ fn radar_out_of_catalogue() {
     radar(RadarCase::OutOfCatalogue, Expect::NotConfident);
 }
 
+/// A radar turned 0.5–1° from its nominal mounting (issue 19): a constant azimuth offset over five
+/// azimuths and 8–60 m, named `radar.extrinsic_error` with its yaw.
+#[test]
+fn radar_yaw_misalignment() {
+    radar(
+        RadarCase::YawMisalignment,
+        Expect::Effect("radar.extrinsic_error"),
+    );
+}
+
+/// A radar clock 40–80 ms off (issue 19) with approaching, receding and crossing targets: range
+/// residuals ṙ·Δt and azimuth residuals (dθ/dt)·Δt, named `radar.time_offset`.
+#[test]
+fn radar_time_offset() {
+    radar(RadarCase::TimeOffset, Expect::Effect("radar.time_offset"));
+}
+
 fn fmcw(case: FmcwCase, expect: Expect) {
     protocol("lidar", case.name(), expect, |seed, dir| {
         independent_truth::fmcw_lidar_campaign(case, seed, dir)
@@ -406,6 +423,124 @@ fn closed_loop_ground_multipath_with_the_physical_radar_model() {
             .contains(&"radar.ground_multipath".to_string())
     );
     assert_eq!(after.history.len(), 1, "the history shows the first run");
+}
+
+/// The closed loop on an independent yaw-misalignment campaign with the physical radar model
+/// (issue 19): re-simulated with the nominal mounting (`--disable radar.extrinsic_error`), the
+/// workflow names `radar.extrinsic_error` with the fitted yaw p0 (deg) and lateral offset p1 (m);
+/// re-simulated with `"calibration": {"yaw_deg": p0, "y_m": p1}` and the effect on, the azimuth RMS
+/// falls by ≥ 50 % and the effect is no longer accepted.
+#[test]
+fn closed_loop_yaw_misalignment_with_the_physical_radar_model() {
+    let tmp = tempfile::tempdir().unwrap();
+    let root = match std::env::var_os("OSIRIS_INDEPENDENT_KEEP") {
+        Some(k) => std::path::PathBuf::from(k).join("closed-loop-yaw"),
+        None => tmp.path().to_path_buf(),
+    };
+    let w = independent_truth::radar_campaign_surveyed(
+        RadarCase::YawMisalignment,
+        seeds()[0],
+        &root.join("campaign"),
+        0.01,
+        0.01,
+    )
+    .unwrap();
+    let (mx, mz) = independent_truth::radar_mounting();
+    let model = |name: &str, calibration: &str| {
+        let path = root.join("campaign").join(name);
+        std::fs::write(
+            &path,
+            format!(
+                r#"{{"kind": "radar", "mode": "physical", "range_m": 100, "update_cycle_s": 0.05,
+                    "fov_horizontal_rad": 1.5708, "fov_vertical_rad": 0.1745,
+                    "mounting": {{"position_m": [{mx}, 0.0, {mz}]}}{calibration}}}"#
+            ),
+        )
+        .unwrap();
+        path
+    };
+    let args =
+        |out: &str, model: std::path::PathBuf, enable: &[&str], disable: &[&str]| ConsistencyArgs {
+            meta: w.meta.clone(),
+            out: root.join(out),
+            simulated: None,
+            model: Some(model),
+            enable: enable.iter().map(|s| s.to_string()).collect(),
+            disable: disable.iter().map(|s| s.to_string()).collect(),
+            history: None,
+        };
+    let t0 = std::time::Instant::now();
+    let before = run_with(
+        &args(
+            "without",
+            model("nominal.json", ""),
+            &[],
+            &["radar.extrinsic_error"],
+        ),
+        None,
+    )
+    .unwrap();
+    let o = Outcome::from(&before);
+    println!(
+        "without: {} accepted {:?} azimuth RMS {:.3}° ({:.1} s)",
+        before.status,
+        o.accepted,
+        before.error["azimuth_deg"],
+        t0.elapsed().as_secs_f64()
+    );
+    let fitted = before
+        .attribution
+        .iter()
+        .find(|a| a.quantity == "azimuth_deg")
+        .expect("azimuth rows");
+    assert!(
+        fitted
+            .accepted
+            .contains(&"radar.extrinsic_error".to_string()),
+        "{:?}",
+        fitted.accepted
+    );
+    let e = fitted
+        .effects
+        .iter()
+        .find(|e| e.id == "radar.extrinsic_error")
+        .unwrap();
+    let (yaw, y) = (e.params[0].value, e.params[1].value);
+    println!("fitted yaw {yaw:.3}°, lateral offset {y:.3} m");
+    let action = before
+        .actions
+        .iter()
+        .find(|a| a.effect == "radar.extrinsic_error")
+        .expect("an action for the named effect");
+    assert!(
+        action
+            .command
+            .as_deref()
+            .unwrap()
+            .contains("--enable radar.extrinsic_error")
+    );
+    let calibrated = model(
+        "calibrated.json",
+        &format!(r#", "calibration": {{"yaw_deg": {yaw}, "y_m": {y}}}"#),
+    );
+    let after = run_with(
+        &args("with", calibrated, &["radar.extrinsic_error"], &[]),
+        None,
+    )
+    .unwrap();
+    let (b, a) = (before.error["azimuth_deg"], after.error["azimuth_deg"]);
+    println!(
+        "with: {} accepted {:?} azimuth RMS {a:.3}° (was {b:.3}°) ({:.1} s)",
+        after.status,
+        after.accepted(),
+        t0.elapsed().as_secs_f64()
+    );
+    assert!(a <= 0.5 * b, "azimuth RMS {b:.3} -> {a:.3} deg");
+    assert!(
+        !after
+            .accepted()
+            .contains(&"radar.extrinsic_error".to_string())
+    );
 }
 
 /// The closed loop on an independent FMCW speckle campaign with the physical LiDAR model's FMCW

@@ -62,11 +62,14 @@ pub struct NoiseModel {
     pub inflation: f64,
 }
 
-/// Whether a quantity gets a fitted calibration offset (nuisance).
+/// Whether a quantity gets a fitted calibration offset (nuisance). The radar azimuth gets none: a
+/// constant azimuth offset is the sensor's yaw misalignment, a named effect
+/// (`radar.extrinsic_error`, physics.md §7.1), not a nuisance to absorb.
 pub fn has_offset(q: &str) -> bool {
     !matches!(
         q,
-        quantity::POINTS_LOG_RATIO
+        quantity::AZIMUTH_DEG
+            | quantity::POINTS_LOG_RATIO
             | quantity::GAP_POINTS
             | quantity::INTENSITY_SD_DB
             | quantity::RANGE_SD_M

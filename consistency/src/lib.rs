@@ -62,9 +62,11 @@ pub const VAR_NAMES: [&str; NVARS] = [
     "ground_dr", // m, two-ray path difference via the road, √(r_h² + (h_t+h_s)²) − √(r_h² + (h_t−h_s)²)
     "elev_dir",  // deg, elevation of the direct path to the phase centre, atan((h_t − h_s)/r_h)
     "elev_img",  // deg, elevation of the road image, atan(−(h_t + h_s)/r_h)
+    "range_rate", // m/s, ground truth: rate of the sensor → target-centre range (positive receding)
+    "azimuth_rate", // deg/s, ground truth: rate of the target centre's azimuth in the sensor frame
 ];
 /// Number of explanatory variables.
-pub const NVARS: usize = 21;
+pub const NVARS: usize = 23;
 /// Index of `prx`.
 pub const V_PRX: usize = 12;
 /// Index of `range` in [`VAR_NAMES`].
@@ -106,6 +108,10 @@ pub const V_GROUND_DR: usize = 18;
 pub const V_ELEV_DIR: usize = 19;
 /// Index of `elev_img`.
 pub const V_ELEV_IMG: usize = 20;
+/// Index of `range_rate`.
+pub const V_RANGE_RATE: usize = 21;
+/// Index of `azimuth_rate`.
+pub const V_AZIMUTH_RATE: usize = 22;
 
 /// The two-ray geometry over the road of a target whose phase centre is `pc_h` above the road at
 /// slant range `range_m` from a sensor `mount_h` above it: (path difference via the road's image,

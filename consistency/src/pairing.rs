@@ -134,6 +134,10 @@ pub struct TargetGeometry {
     /// Height of the target's phase centre above the road below it, m (the asset's documented
     /// phase centre, `models/ASSETS.md`, placed by the ground-truth pose).
     pub phase_centre_height_m: f64,
+    /// Rate of the sensor → target-centre range (OSI velocities of target and host), m/s.
+    pub range_rate_m_s: f64,
+    /// Rate of the target centre's azimuth in the (rotating) sensor frame, deg/s.
+    pub azimuth_rate_deg_s: f64,
 }
 
 struct FrameGeom {
@@ -222,7 +226,7 @@ fn frame_geometry(campaign: &Campaign, view: &osi3::SensorView) -> Result<FrameG
     });
     let sensor = SensorFrame::new(host, &mounting);
     let road = Road::of(gt, host);
-    let mut objects: Vec<(u64, Pose, DVec3, &str)> = Vec::new();
+    let mut objects: Vec<(u64, Pose, DVec3, &str, DVec3)> = Vec::new();
     let dims = |d: Option<&osi3::Dimension3d>| {
         d.map(|d| {
             DVec3::new(
@@ -245,6 +249,7 @@ fn frame_geometry(campaign: &Campaign, view: &osi3::SensorView) -> Result<FrameG
             moving_object_pose(o),
             dims(o.base.as_ref().and_then(|b| b.dimension.as_ref())),
             o.model_reference.as_deref().unwrap_or(""),
+            osiris_models::frames::vec3_from_osi(o.base.as_ref().and_then(|b| b.velocity.as_ref())),
         ));
     }
     for o in &gt.stationary_object {
@@ -256,6 +261,7 @@ fn frame_geometry(campaign: &Campaign, view: &osi3::SensorView) -> Result<FrameG
             stationary_object_pose(o),
             dims(o.base.as_ref().and_then(|b| b.dimension.as_ref())),
             o.model_reference.as_deref().unwrap_or(""),
+            DVec3::ZERO,
         ));
     }
     let wanted: Vec<u64> = if campaign.targets.is_empty() {
@@ -265,12 +271,16 @@ fn frame_geometry(campaign: &Campaign, view: &osi3::SensorView) -> Result<FrameG
     };
     let s_pos = sensor.pose.position;
     let mut targets = Vec::new();
-    for (id, pose, dims, reference) in objects {
+    for (id, pose, dims, reference, velocity) in objects {
         if !wanted.contains(&id) {
             continue;
         }
         let c = sensor.point_to_sensor(pose.position);
         let range = c.length();
+        // d/dt atan2(y, x) = (x·ẏ − y·ẋ)/(x² + y²) with the velocity seen in the rotating sensor
+        // frame (osiris_models::frames::SensorFrame::relative_velocity).
+        let c_dot = sensor.relative_velocity(pose.position, velocity);
+        let azimuth_rate = (c.x * c_dot.y - c.y * c_dot.x) / (c.x * c.x + c.y * c.y).max(1e-9);
         let facing = pose.transform_vector(DVec3::X);
         let to_sensor = (s_pos - pose.position).normalize_or_zero();
         targets.push(TargetGeometry {
@@ -286,6 +296,8 @@ fn frame_geometry(campaign: &Campaign, view: &osi3::SensorView) -> Result<FrameG
                 let pc = pose.transform_point(phase_centre_in_box(reference, dims));
                 pc.z - road.z_below(pc)
             },
+            range_rate_m_s: sensor.range_rate(pose.position, velocity),
+            azimuth_rate_deg_s: azimuth_rate.to_degrees(),
         });
     }
     let sensor_height_m = s_pos.z - road.z_below(s_pos);
@@ -333,6 +345,8 @@ fn vars(campaign: &Campaign, geom: &FrameGeom, g: &TargetGeometry) -> [f64; NVAR
         dr,
         el_dir,
         el_img,
+        g.range_rate_m_s,
+        g.azimuth_rate_deg_s,
     ]
 }
 

@@ -434,6 +434,123 @@ impl Mounting {
     }
 }
 
+/// Largest mounting angle error the `calibration` block accepts, deg (a bent bracket or a
+/// misaligned bumper radar is off by tenths of a degree to a few degrees; beyond this the sensor
+/// is mis-mounted, not miscalibrated).
+pub const MAX_CALIBRATION_ANGLE_DEG: f64 = 10.0;
+/// Largest mounting translation error the `calibration` block accepts, m.
+pub const MAX_CALIBRATION_TRANSLATION_M: f64 = 1.0;
+/// Largest clock offset the `calibration` block accepts, s.
+pub const MAX_TIME_OFFSET_S: f64 = 1.0;
+/// Largest clock drift the `calibration` block accepts, ppm (quartz oscillators: tens of ppm).
+pub const MAX_TIME_DRIFT_PPM: f64 = 1000.0;
+
+/// How a real sensor differs from its nominal mounting and clock (the configuration's
+/// `calibration` block; every key defaults to 0).
+///
+/// * **Extrinsic error** (`roll_deg`, `pitch_deg`, `yaw_deg`, `x_m`, `y_m`, `z_m`): the pose of the
+///   sensor's *true* frame in its *nominal* frame (the one `mounting` gives): rotation
+///   `R_E = Rz(yaw)·Ry(pitch)·Rx(roll)` about the nominal sensor axes and the translation
+///   `t_E = (x, y, z)` in the nominal sensor axes, so the true mounting is
+///   `M_true = M_nom ∘ E` (`p_host = p_nom + R_nom·(t_E + R_E·p_true)`). The sensor measures in its
+///   true frame and reports the numbers as if they were in the nominal one: a target at azimuth θ
+///   in the nominal frame is reported at θ − yaw; a sensor moved by `y_m` to the left reports the
+///   target `y_m` further right.
+/// * **Time offset** (`time_offset_s`, `time_drift_ppm`): the sensor measures the world at
+///   `t + Δt(t)`, `Δt(t) = time_offset_s + time_drift_ppm·10⁻⁶·t` (t the ground-truth time, s),
+///   and stamps the measurement `t`: a target moving at `v_rel` relative to the sensor is reported
+///   `v_rel·Δt` off.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Calibration {
+    /// Roll of the true sensor frame about the nominal sensor x axis, deg.
+    pub roll_deg: f64,
+    /// Pitch of the true sensor frame about the nominal sensor y axis, deg (positive: looks down).
+    pub pitch_deg: f64,
+    /// Yaw of the true sensor frame about the nominal sensor z axis, deg (positive: looks left).
+    pub yaw_deg: f64,
+    /// Offset of the true sensor origin along the nominal sensor x axis, m.
+    pub x_m: f64,
+    /// Offset of the true sensor origin along the nominal sensor y axis, m.
+    pub y_m: f64,
+    /// Offset of the true sensor origin along the nominal sensor z axis, m.
+    pub z_m: f64,
+    /// Constant clock offset: the sensor measures at ground-truth time + this, s.
+    pub time_offset_s: f64,
+    /// Clock drift, ppm: the offset grows by `time_drift_ppm·10⁻⁶` s per second of ground-truth time.
+    pub time_drift_ppm: f64,
+}
+
+impl Calibration {
+    /// The true sensor frame in the nominal sensor frame (see the type's documentation).
+    pub fn pose(&self) -> Pose {
+        Pose::new(
+            DVec3::new(self.x_m, self.y_m, self.z_m),
+            rotation_from_rpy(
+                self.roll_deg.to_radians(),
+                self.pitch_deg.to_radians(),
+                self.yaw_deg.to_radians(),
+            ),
+        )
+    }
+
+    /// Whether any of the extrinsic (pose) errors is non-zero.
+    pub fn has_extrinsic_error(&self) -> bool {
+        [
+            self.roll_deg,
+            self.pitch_deg,
+            self.yaw_deg,
+            self.x_m,
+            self.y_m,
+            self.z_m,
+        ]
+        .iter()
+        .any(|v| *v != 0.0)
+    }
+
+    /// The clock offset at ground-truth time `t_s`: `time_offset_s + time_drift_ppm·10⁻⁶·t_s`, s.
+    pub fn time_offset_at(&self, t_s: f64) -> f64 {
+        self.time_offset_s + self.time_drift_ppm * 1e-6 * t_s
+    }
+
+    /// The true mounting of a sensor whose nominal mounting is `nominal`: `M_nom ∘ E`.
+    pub fn true_mounting(&self, nominal: &osi3::MountingPosition) -> osi3::MountingPosition {
+        let m = Pose::from_mounting(nominal).compose(&self.pose());
+        osi3::MountingPosition {
+            position: Some(vec3_to_osi(m.position)),
+            orientation: Some(rpy_to_osi(rpy_from_rotation(&m.rotation))),
+        }
+    }
+
+    /// Check every value: finite and within the plausible bounds; the error names the key
+    /// (`calibration.<key>`) and the value.
+    pub fn validate(&self) -> Result<(), String> {
+        let check = |key: &str, v: f64, max: f64| {
+            if v.is_finite() && v.abs() <= max {
+                Ok(())
+            } else {
+                Err(format!(
+                    "`calibration.{key}` must be a finite number with |value| <= {max}, got {v}"
+                ))
+            }
+        };
+        check("roll_deg", self.roll_deg, MAX_CALIBRATION_ANGLE_DEG)?;
+        check("pitch_deg", self.pitch_deg, MAX_CALIBRATION_ANGLE_DEG)?;
+        check("yaw_deg", self.yaw_deg, MAX_CALIBRATION_ANGLE_DEG)?;
+        check("x_m", self.x_m, MAX_CALIBRATION_TRANSLATION_M)?;
+        check("y_m", self.y_m, MAX_CALIBRATION_TRANSLATION_M)?;
+        check("z_m", self.z_m, MAX_CALIBRATION_TRANSLATION_M)?;
+        check("time_offset_s", self.time_offset_s, MAX_TIME_OFFSET_S)?;
+        check("time_drift_ppm", self.time_drift_ppm, MAX_TIME_DRIFT_PPM)?;
+        Ok(())
+    }
+
+    /// All zero (nothing to apply).
+    pub fn is_zero(&self) -> bool {
+        *self == Calibration::default()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

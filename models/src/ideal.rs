@@ -1000,6 +1000,7 @@ impl SensorModel for IdealSensor {
                     peak: peaks,
                     waveform: None,
                     range_doppler_map: None,
+                    ..Default::default()
                 });
             }
             SensorKind::Lidar => {

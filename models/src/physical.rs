@@ -114,7 +114,7 @@ impl<P: Physics> PhysicalSensor<P> {
         }
         // Environment and space-design switches (wet road, multipath, transmission, ...) reach
         // the scene and the space through the world.
-        let world = SensorWorld::for_effects(&effects);
+        let world = SensorWorld::for_effects(&effects, P::KIND);
         let physics = P::plan(&common, params, effects)?;
         Ok(PhysicalSensor {
             handshake: Handshake::new(common),
@@ -194,7 +194,7 @@ impl<P: Physics> SensorModel for PhysicalSensor<P> {
             &FrameHeader::of_world(&frame, index),
             input.view,
             config,
-            &PoseFrames::new(&frame.frame, &frame.mounting),
+            &PoseFrames::new(&frame.nominal_frame, &frame.mounting),
             &|t| physics.last_truth_of(t),
         );
         self.cycle += 1;
@@ -209,12 +209,14 @@ impl<P: Physics> SensorModel for PhysicalSensor<P> {
 }
 
 /// The sensor's motion at the measurement time as recognition takes it (ego-motion compensation,
-/// tracking in the scene frame).
+/// tracking in the scene frame): the **nominal** pose and motion (the mounting on the host at the
+/// stamped time, `WorldFrame::nominal_pose`), what the sensor believes; a miscalibrated sensor
+/// compensates and tracks with it.
 pub fn ego_state(frame: &WorldFrame<'_>) -> crate::recognition::EgoState {
     crate::recognition::EgoState {
         time_s: frame.time_s,
-        sensor_pose: frame.sensor_pose,
-        sensor_velocity_m_s: frame.sensor_velocity_m_s,
-        sensor_angular_velocity_rad_s: frame.sensor_angular_velocity_rad_s,
+        sensor_pose: frame.nominal_pose,
+        sensor_velocity_m_s: frame.nominal_frame.velocity,
+        sensor_angular_velocity_rad_s: frame.nominal_frame.angular_velocity,
     }
 }

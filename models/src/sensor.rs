@@ -7,7 +7,7 @@ use osiris_proto::{osi3, perception};
 use serde::{Deserialize, Serialize};
 
 pub use crate::error::ModelError;
-pub use crate::frames::Mounting;
+pub use crate::frames::{Calibration, Mounting};
 
 use crate::effects::{EffectSwitches, Effects};
 use crate::environment::weather::Weather;
@@ -102,6 +102,10 @@ pub struct CommonConfig {
     pub update_cycle_s: f64,
     /// Mounting used for the OSMP configuration request and when a SensorView carries none.
     pub mounting: Mounting,
+    /// Physical models: how the real sensor differs from `mounting` and from the ground-truth
+    /// clock (extrinsic error, time offset; [`Calibration`]). All zero: a perfectly calibrated
+    /// sensor.
+    pub calibration: Calibration,
     /// Ideal model: minimum fraction of an object's sample points with a free line of sight for
     /// the object to count as visible (0..1].
     pub min_visible_fraction: f64,

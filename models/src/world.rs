@@ -22,19 +22,104 @@
 //! materials follow it with their wet variants, and `space.*` ([`SpaceEffects`]) reach the
 //! [`Space`] every query of the sensor goes through.
 //!
+//! # True and nominal pose (`<sensor>.extrinsic_error`, `<sensor>.time_offset`)
+//!
+//! A real sensor is not exactly where its mounting says, and its clock is not the ground truth's
+//! ([`crate::frames::Calibration`], the configuration's `calibration` block). The world resolves two poses:
+//!
+//! * the **true** one ([`WorldFrame::sensor_pose`], [`WorldFrame::frame`], the sensor velocities):
+//!   the mounting composed with the extrinsic error (`M_true = M_nom ∘ E`,
+//!   [`crate::frames::Calibration::true_mounting`]; `<sensor>.extrinsic_error`) on the host vehicle as it is at
+//!   the sensor's measurement time `t + Δt` (`<sensor>.time_offset`: every moving object of the
+//!   ground truth, the host included, is moved along its OSI velocity and acceleration by `Δt`,
+//!   [`ground_truth_after`]). Every ray is traced from it, so the physics measures from where the
+//!   sensor really is, when it really measures;
+//! * the **nominal** one ([`WorldFrame::nominal_pose`], [`WorldFrame::nominal_frame`]): the
+//!   configured (or SensorView) mounting on the host at the stamped time `t`. It is what the sensor
+//!   believes: the recognition's ego state ([`crate::physical::ego_state`]: ego-motion
+//!   compensation, tracking in the scene frame), the camera's levelling and height, and the output
+//!   headers (`mounting_position`, timestamp) use it.
+//!
+//! A sensor-frame measurement (a LiDAR point, a radar detection's range and angles, a pixel) is
+//! therefore taken in the true frame and reported as it is, in the frame the header calls nominal:
+//! a miscalibrated sensor does not know its error. With both effects off, or a zero calibration,
+//! the two poses are the same.
+//!
 //! The resulting [`WorldFrame`] is all a physical model needs to trace rays: everything in it is
-//! in the scene frame except `frame` (global).
+//! in the scene frame except `frame` and `nominal_frame` (global).
 
 use glam::DVec3;
 use osiris_proto::{osi3, timestamp_from_seconds};
 
+use crate::effects::EffectInfo;
 use crate::effects::Effects;
 use crate::environment::material::{MaterialDb, WET_SURFACES};
 use crate::environment::scene::{Scene, SceneBuilder, SceneOptions};
 use crate::environment::weather::{RoadWetness, WET_ROAD, Weather};
 use crate::frames::{Pose, SensorFrame};
-use crate::sensor::{CommonConfig, ModelError};
+use crate::sensor::{CommonConfig, ModelError, SensorKind};
 use crate::space::{Space, SpaceBuilder, SpaceEffects};
+
+/// `lidar.extrinsic_error`: the LiDAR measures from its true pose (see the module documentation).
+pub const LIDAR_EXTRINSIC_ERROR: EffectInfo = extrinsic_error("lidar.extrinsic_error");
+/// `radar.extrinsic_error`: the radar measures from its true pose.
+pub const RADAR_EXTRINSIC_ERROR: EffectInfo = extrinsic_error("radar.extrinsic_error");
+/// `camera.extrinsic_error`: the camera measures from its true pose.
+pub const CAMERA_EXTRINSIC_ERROR: EffectInfo = extrinsic_error("camera.extrinsic_error");
+/// `lidar.time_offset`: the LiDAR measures at its own clock's time.
+pub const LIDAR_TIME_OFFSET: EffectInfo = time_offset("lidar.time_offset");
+/// `radar.time_offset`: the radar measures at its own clock's time.
+pub const RADAR_TIME_OFFSET: EffectInfo = time_offset("radar.time_offset");
+/// `camera.time_offset`: the camera measures at its own clock's time.
+pub const CAMERA_TIME_OFFSET: EffectInfo = time_offset("camera.time_offset");
+
+const fn extrinsic_error(name: &'static str) -> EffectInfo {
+    EffectInfo {
+        name,
+        default_on: true,
+        summary: "the sensor measures from its true pose M_nom ∘ E (the `calibration` block's roll, \
+                  pitch, yaw in deg and x, y, z in m, nominal sensor axes) and reports in the nominal \
+                  frame: a yaw error δ moves a target at azimuth θ to θ − δ, a translation t moves \
+                  it by −t; acts only with a non-zero calibration",
+        source: "rigid-body frame composition (physics.md §7.1); radar misalignment and its \
+                 effects: Burza, Sensors 24(15):4913, 2024; LiDAR/camera extrinsic drift: \
+                 Levinson & Thrun, RSS 2013",
+        requires: None,
+    }
+}
+
+const fn time_offset(name: &'static str) -> EffectInfo {
+    EffectInfo {
+        name,
+        default_on: true,
+        summary: "the sensor measures the world at t + Δt, Δt = time_offset_s + \
+                  time_drift_ppm·10⁻⁶·t, and stamps it t: moving objects (host included) are \
+                  extrapolated along their OSI velocity and acceleration, a target moving at v_rel \
+                  is reported v_rel·Δt off; acts only with a non-zero offset or drift",
+        source: "constant-acceleration kinematics p + v·Δt + ½a·Δt² (physics.md §7.2)",
+        requires: None,
+    }
+}
+
+/// The mounting and timing effects of every sensor (the world applies them; `registry::catalogue`
+/// lists them).
+pub const MOUNTING_EFFECTS: &[EffectInfo] = &[
+    LIDAR_EXTRINSIC_ERROR,
+    RADAR_EXTRINSIC_ERROR,
+    CAMERA_EXTRINSIC_ERROR,
+    LIDAR_TIME_OFFSET,
+    RADAR_TIME_OFFSET,
+    CAMERA_TIME_OFFSET,
+];
+
+/// The extrinsic-error and time-offset effects of a sensor kind.
+pub fn mounting_effects(kind: SensorKind) -> (&'static EffectInfo, &'static EffectInfo) {
+    match kind {
+        SensorKind::Lidar => (&LIDAR_EXTRINSIC_ERROR, &LIDAR_TIME_OFFSET),
+        SensorKind::Radar => (&RADAR_EXTRINSIC_ERROR, &RADAR_TIME_OFFSET),
+        SensorKind::Camera => (&CAMERA_EXTRINSIC_ERROR, &CAMERA_TIME_OFFSET),
+    }
+}
 
 /// The switches a [`SensorWorld`] applies to the scene and the space (see the module
 /// documentation).
@@ -46,6 +131,10 @@ pub struct WorldEffects {
     pub wet_road: bool,
     /// `env.wet_surfaces`: a wet road uses the wet variants of its materials.
     pub wet_surfaces: bool,
+    /// `<sensor>.extrinsic_error`: trace from the true pose (the calibration's extrinsic error).
+    pub extrinsic_error: bool,
+    /// `<sensor>.time_offset`: measure at the sensor clock's time (the calibration's offset, drift).
+    pub time_offset: bool,
 }
 
 impl Default for WorldEffects {
@@ -54,18 +143,23 @@ impl Default for WorldEffects {
             space: SpaceEffects::default(),
             wet_road: WET_ROAD.default_on,
             wet_surfaces: WET_SURFACES.default_on,
+            extrinsic_error: RADAR_EXTRINSIC_ERROR.default_on,
+            time_offset: RADAR_TIME_OFFSET.default_on,
         }
     }
 }
 
 impl WorldEffects {
-    /// The switches from an effect set that declares the `env.*` and `space.*` effects (panics if
-    /// it does not).
-    pub fn from_effects(effects: &Effects) -> WorldEffects {
+    /// The switches of a `kind` sensor from an effect set that declares the `env.*`, `space.*` and
+    /// mounting effects ([`effects`]; panics if it does not).
+    pub fn from_effects(effects: &Effects, kind: SensorKind) -> WorldEffects {
+        let (extrinsic, timing) = mounting_effects(kind);
         WorldEffects {
             space: SpaceEffects::from_effects(effects),
             wet_road: effects.is_on(&WET_ROAD),
             wet_surfaces: effects.is_on(&WET_SURFACES),
+            extrinsic_error: effects.is_on(extrinsic),
+            time_offset: effects.is_on(timing),
         }
     }
 
@@ -86,14 +180,23 @@ pub struct WorldFrame<'a> {
     pub scene: &'a Scene,
     /// The ray-traceable space of the scene, scene frame.
     pub space: &'a Space,
-    /// Sensor frame → scene frame (`p_scene = sensor_pose.transform_point(p_sensor)`).
+    /// The **true** sensor frame → scene frame (`p_scene = sensor_pose.transform_point(p_sensor)`):
+    /// where the sensor really is when it really measures (module documentation). Rays start here.
     pub sensor_pose: Pose,
-    /// Velocity of the sensor origin, scene frame axes, m/s.
+    /// Velocity of the true sensor origin, scene frame axes, m/s.
     pub sensor_velocity_m_s: DVec3,
     /// Angular velocity of the sensor frame, scene frame axes, rad/s.
     pub sensor_angular_velocity_rad_s: DVec3,
-    /// The sensor frame in global coordinates (with its motion).
+    /// The true sensor frame in global coordinates (with its motion).
     pub frame: SensorFrame,
+    /// The **nominal** sensor frame → scene frame: the mounting in effect on the host at the
+    /// stamped time, what the sensor believes its pose is (recognition, reporting).
+    pub nominal_pose: Pose,
+    /// The nominal sensor frame in global coordinates (with its motion).
+    pub nominal_frame: SensorFrame,
+    /// The sensor clock's offset this step (`<sensor>.time_offset`): the world is the ground truth
+    /// this much later than `time_s`, s (0 with the effect off or no offset configured).
+    pub time_offset_s: f64,
     /// Weather in effect this step.
     pub weather: Weather,
     /// Measurement time of this step (SensorView timestamp, else ground truth's, else the
@@ -103,7 +206,8 @@ pub struct WorldFrame<'a> {
     pub timestamp: osi3::Timestamp,
     /// Host vehicle id, if any.
     pub host_id: Option<u64>,
-    /// The mounting in effect (physical sensor frame relative to the host vehicle frame).
+    /// The mounting in effect, nominal (the sensor frame the output reports in, relative to the
+    /// host vehicle frame).
     pub mounting: osi3::MountingPosition,
     /// The host vehicle's `base` (for `SensorData.host_vehicle_location`).
     pub host_base: Option<osi3::BaseMoving>,
@@ -223,6 +327,9 @@ pub struct SensorWorld {
     effects: WorldEffects,
     scene: Option<Scene>,
     space: Option<Space>,
+    /// The ground truth at the sensor's measurement time when its clock is off (`None`: the
+    /// SensorView's own is used).
+    shifted: Option<osi3::GroundTruth>,
     /// Scene builds + static rebuilds so far (diagnostics).
     pub static_builds: u64,
     /// Warnings of the last scene update (unusable model references etc.).
@@ -237,10 +344,10 @@ impl SensorWorld {
     }
 
     /// A world with the built-in materials database and default scene options that applies the
-    /// switches of a sensor's effect set ([`WorldEffects::from_effects`]): how every physical sensor
-    /// builds its world.
-    pub fn for_effects(effects: &Effects) -> SensorWorld {
-        SensorWorld::new().with_effects(WorldEffects::from_effects(effects))
+    /// switches of a `kind` sensor's effect set ([`WorldEffects::from_effects`]): how every
+    /// physical sensor builds its world.
+    pub fn for_effects(effects: &Effects, kind: SensorKind) -> SensorWorld {
+        SensorWorld::new().with_effects(WorldEffects::from_effects(effects, kind))
     }
 
     /// A world with a given materials database and scene options, every effect at its default
@@ -253,6 +360,7 @@ impl SensorWorld {
             effects: WorldEffects::default(),
             scene: None,
             space: None,
+            shifted: None,
             static_builds: 0,
             warnings: Vec::new(),
         }
@@ -298,9 +406,38 @@ impl SensorWorld {
             host_id,
             host,
             mounting,
-            frame,
+            frame: nominal_frame,
             timestamp,
         } = resolved;
+
+        // The sensor's clock: the world as it is `dt` after the stamped time.
+        let t_stamp_s = osiris_proto::timestamp_to_seconds(&timestamp);
+        let dt = if self.effects.time_offset {
+            config.calibration.time_offset_at(t_stamp_s)
+        } else {
+            0.0
+        };
+        let dt = if dt.is_finite() { dt } else { 0.0 };
+        self.shifted = (dt != 0.0).then(|| ground_truth_after(gt, dt));
+        let gt_true: &osi3::GroundTruth = self.shifted.as_ref().unwrap_or(gt);
+        // The true pose: the extrinsic error on the host at the measurement time.
+        let extrinsic = self.effects.extrinsic_error && config.calibration.has_extrinsic_error();
+        let frame = if extrinsic || dt != 0.0 {
+            let true_mounting = if extrinsic {
+                config.calibration.true_mounting(&mounting)
+            } else {
+                mounting
+            };
+            let host_true = host_id.and_then(|h| {
+                gt_true
+                    .moving_object
+                    .iter()
+                    .find(|o| o.id.and_then(|i| i.value) == Some(h))
+            });
+            SensorFrame::new(host_true, &true_mounting)
+        } else {
+            nominal_frame
+        };
 
         // Scene: build once, update afterwards.
         let scene_err = |e: crate::environment::scene::SceneError| {
@@ -309,7 +446,7 @@ impl SensorWorld {
         let mut rebuild_space = self.space.is_none();
         match self.scene.as_mut() {
             Some(scene) => {
-                let report = scene.update(gt).map_err(scene_err)?;
+                let report = scene.update(gt_true).map_err(scene_err)?;
                 if report.static_rebuilt || report.rebased {
                     rebuild_space = true;
                     self.static_builds += 1;
@@ -324,7 +461,7 @@ impl SensorWorld {
                 let scene = SceneBuilder::new(self.materials.clone())
                     .host_id(host_id)
                     .options(options)
-                    .build(gt)
+                    .build(gt_true)
                     .map_err(scene_err)?;
                 self.scene = Some(scene);
                 self.static_builds += 1;
@@ -370,6 +507,10 @@ impl SensorWorld {
         let space = self.space.as_ref().expect("space built above");
 
         let sensor_pose = Pose::new(scene.to_local(frame.pose.position), frame.pose.rotation);
+        let nominal_pose = Pose::new(
+            scene.to_local(nominal_frame.pose.position),
+            nominal_frame.pose.rotation,
+        );
         // The road state is the scene's (configured weather or ground truth, `env.wet_road`).
         let weather = match &config.weather {
             Some(w) => Weather {
@@ -385,8 +526,11 @@ impl SensorWorld {
             sensor_velocity_m_s: frame.velocity,
             sensor_angular_velocity_rad_s: frame.angular_velocity,
             frame,
+            nominal_pose,
+            nominal_frame,
+            time_offset_s: dt,
             weather,
-            time_s: osiris_proto::timestamp_to_seconds(&timestamp),
+            time_s: t_stamp_s,
             timestamp,
             host_id,
             mounting,
@@ -400,7 +544,45 @@ impl SensorWorld {
 /// effects, all that model's [`Effects`] set is asked about (every effect's `requires` parent is one
 /// of these).
 pub fn effects() -> Vec<crate::effects::EffectInfo> {
-    [&crate::environment::effects()[..], crate::space::EFFECTS].concat()
+    [
+        &crate::environment::effects()[..],
+        crate::space::EFFECTS,
+        MOUNTING_EFFECTS,
+    ]
+    .concat()
+}
+
+/// The ground truth `dt_s` later, as a sensor whose clock is `dt_s` ahead sees it: every moving
+/// object (the host included) moved along its OSI motion at constant acceleration,
+/// `p + v·dt + ½·a·dt²`, `v + a·dt`, and its orientation along its `orientation_rate`
+/// (`(φ, θ, ψ) + (φ̇, θ̇, ψ̇)·dt`, first order). Stationary objects, the road and the timestamp
+/// stay as they are.
+pub fn ground_truth_after(gt: &osi3::GroundTruth, dt_s: f64) -> osi3::GroundTruth {
+    use crate::frames::{rpy_from_osi, rpy_to_osi, vec3_from_osi, vec3_to_osi};
+    let mut out = gt.clone();
+    for o in &mut out.moving_object {
+        let Some(base) = o.base.as_mut() else {
+            continue;
+        };
+        let v = vec3_from_osi(base.velocity.as_ref());
+        let a = vec3_from_osi(base.acceleration.as_ref());
+        if let Some(p) = base.position.as_ref() {
+            let p = vec3_from_osi(Some(p)) + v * dt_s + 0.5 * a * dt_s * dt_s;
+            base.position = Some(vec3_to_osi(p));
+        }
+        if base.acceleration.is_some() {
+            base.velocity = Some(vec3_to_osi(v + a * dt_s));
+        }
+        if let (Some(o), Some(rate)) = (base.orientation.as_ref(), base.orientation_rate.as_ref()) {
+            let (rpy, w) = (rpy_from_osi(Some(o)), rpy_from_osi(Some(rate)));
+            base.orientation = Some(rpy_to_osi([
+                rpy[0] + w[0] * dt_s,
+                rpy[1] + w[1] * dt_s,
+                rpy[2] + w[2] * dt_s,
+            ]));
+        }
+    }
+    out
 }
 
 impl Default for SensorWorld {

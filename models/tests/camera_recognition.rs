@@ -189,6 +189,7 @@ fn run(
         lens,
         ground_truth: gt,
         frame: &frame,
+        reported_rotation: frame.pose.rotation,
         camera_height_m: CAM_H,
         time_s: 0.0,
         seed: 7,

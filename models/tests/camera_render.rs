@@ -119,6 +119,7 @@ fn sensor_config(
             position_m: position,
             orientation_rad: orientation,
         },
+        calibration: Default::default(),
         min_visible_fraction: 0.2,
         effects: Default::default(),
         weather,

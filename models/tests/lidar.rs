@@ -112,6 +112,7 @@ fn config(lidar: LidarConfig, effects: EffectSwitches) -> SensorConfig {
             position_m: [0.0, 0.0, SENSOR_Z],
             orientation_rad: [0.0; 3],
         },
+        calibration: Default::default(),
         min_visible_fraction: 0.2,
         effects,
         weather: None,

@@ -87,6 +87,7 @@ fn config(lidar: LidarConfig, effects: &[(&str, bool)], mounting: [f64; 3]) -> S
             position_m: mounting,
             orientation_rad: [0.0; 3],
         },
+        calibration: Default::default(),
         min_visible_fraction: 0.2,
         effects: effects
             .iter()

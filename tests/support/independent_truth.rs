@@ -202,12 +202,35 @@ struct LoggedBox {
     dims: DVec3,
     yaw: f64,
     model_reference: String,
+    /// Velocity, m/s: a target that moves is logged as a moving object (OSI type OTHER) with it.
+    velocity: DVec3,
 }
 
 fn sensor_view(frame: u64, h_sensor: f64, boxes: &[LoggedBox]) -> osi3::SensorView {
     let t = frame * FRAME_DT_NS;
+    let moving = boxes
+        .iter()
+        .filter(|b| b.velocity != DVec3::ZERO)
+        .map(|b| osi3::MovingObject {
+            id: ident(b.id),
+            base: Some(osi3::BaseMoving {
+                dimension: Some(osi3::Dimension3d {
+                    length: Some(b.dims.x),
+                    width: Some(b.dims.y),
+                    height: Some(b.dims.z),
+                }),
+                position: v3(b.centre),
+                orientation: yaw_only(b.yaw),
+                velocity: v3(b.velocity),
+                ..Default::default()
+            }),
+            r#type: Some(osi3::moving_object::Type::Other as i32),
+            model_reference: Some(b.model_reference.clone()),
+            ..Default::default()
+        });
     let stationary = boxes
         .iter()
+        .filter(|b| b.velocity == DVec3::ZERO)
         .map(|b| osi3::StationaryObject {
             id: ident(b.id),
             base: Some(osi3::BaseStationary {
@@ -232,7 +255,7 @@ fn sensor_view(frame: u64, h_sensor: f64, boxes: &[LoggedBox]) -> osi3::SensorVi
         global_ground_truth: Some(osi3::GroundTruth {
             timestamp: stamp(t),
             host_vehicle_id: ident(HOST_ID),
-            moving_object: vec![host_object()],
+            moving_object: std::iter::once(host_object()).chain(moving).collect(),
             stationary_object: stationary,
             ..Default::default()
         }),
@@ -339,10 +362,16 @@ pub enum RadarCase {
     Null,
     /// Range-FFT scalloping (no window, no peak interpolation): not in the catalogue.
     OutOfCatalogue,
+    /// The measuring radar is turned by 0.5–1.0° (either side) from its nominal mounting: it
+    /// measures in its true frame and reports in the nominal one.
+    YawMisalignment,
+    /// The measuring radar's clock is 40–80 ms (either sign) off the ground truth's; the targets
+    /// move (approaching, receding, crossing).
+    TimeOffset,
 }
 
 impl RadarCase {
-    pub const ALL: [RadarCase; 7] = [
+    pub const ALL: [RadarCase; 9] = [
         RadarCase::GroundMultipath,
         RadarCase::TwoWaySpreading,
         RadarCase::RcsAreaScaling,
@@ -350,6 +379,8 @@ impl RadarCase {
         RadarCase::Rain,
         RadarCase::Null,
         RadarCase::OutOfCatalogue,
+        RadarCase::YawMisalignment,
+        RadarCase::TimeOffset,
     ];
     pub fn name(self) -> &'static str {
         match self {
@@ -360,6 +391,8 @@ impl RadarCase {
             RadarCase::Rain => "rain",
             RadarCase::Null => "null",
             RadarCase::OutOfCatalogue => "out_of_catalogue",
+            RadarCase::YawMisalignment => "yaw_misalignment",
+            RadarCase::TimeOffset => "time_offset",
         }
     }
 }
@@ -632,7 +665,32 @@ fn radar_design(case: RadarCase, rng: &mut Rng) -> RadarDesign {
                 snr_semantics: false,
             }
         }
-        RadarCase::TwoWaySpreading | RadarCase::Null => {
+        RadarCase::YawMisalignment => {
+            // Five azimuth slots ±16° and ranges 8–63 m: a yaw moves every target by one angle,
+            // a lateral offset by one that falls as 1/R, an azimuth scale by one that grows with
+            // the azimuth.
+            let az = [-16.0, -8.0, 0.0, 8.0, 16.0];
+            for k in 0..30usize {
+                let r = 8.0 + 52.0 * k as f64 / 29.0;
+                // 0 / 1.5 / 3 m apart in range: a radar that cannot resolve 8° in azimuth still
+                // sees each reflector on its own.
+                stations.push(RadarStation {
+                    placed: (0..3)
+                        .map(|i| (i, r + 1.5 * i as f64, az[(2 * i + k) % 5]))
+                        .collect(),
+                });
+            }
+            RadarDesign {
+                edges: vec![0.08, 0.10, 0.15],
+                apex_h: vec![0.6; 3],
+                stations,
+                frames_per_station: 3,
+                rain_mm_h: 0.0,
+                asphalt: false,
+                snr_semantics: false,
+            }
+        }
+        RadarCase::TwoWaySpreading | RadarCase::Null | RadarCase::TimeOffset => {
             let az = [-6.0, 0.0, 6.0];
             for k in 0..40usize {
                 let r = 5.0 * 1.08f64.powi(k as i32);
@@ -681,6 +739,31 @@ pub fn radar_campaign_surveyed(
         multipath: design.asphalt.then_some(EPS_ASPHALT),
         rain_db_km: rain_db_per_km(design.rain_mm_h),
         scalloping: case == RadarCase::OutOfCatalogue,
+    };
+    // The measuring radar's hidden yaw (rad) and clock offset (s), and the targets' motion: in
+    // the time-offset case target 0 approaches and target 1 recedes along the line of sight at
+    // 6 m/s, target 2 crosses at 5 m/s.
+    let sign = |rng: &mut Rng| if rng.uniform() < 0.5 { -1.0 } else { 1.0 };
+    let yaw_true = if case == RadarCase::YawMisalignment {
+        (sign(&mut rng) * rng.range(0.5, 1.0)).to_radians()
+    } else {
+        0.0
+    };
+    let clock_s = if case == RadarCase::TimeOffset {
+        sign(&mut rng) * rng.range(0.04, 0.08)
+    } else {
+        0.0
+    };
+    let motion = |ti: usize, az: f64| -> DVec3 {
+        if case != RadarCase::TimeOffset {
+            return DVec3::ZERO;
+        }
+        let los = DVec3::new(az.cos(), az.sin(), 0.0);
+        match ti {
+            0 => -6.0 * los,
+            1 => 6.0 * los,
+            _ => 5.0 * DVec3::new(-az.sin(), az.cos(), 0.0),
+        }
     };
     let model = RadarPhysics {
         spreading: if case == RadarCase::TwoWaySpreading {
@@ -744,6 +827,7 @@ pub fn radar_campaign_surveyed(
                     r * az.sin(),
                     trihedral_centre_z(t.edge, t.top_true),
                 );
+                let target_velocity = motion(ti, az);
                 let apex_true = apex_from_box(c_true, yaw, t.edge);
                 let jitter = DVec3::new(rng.normal(), rng.normal(), rng.normal()) * pos_sigma;
                 let c_log =
@@ -756,16 +840,19 @@ pub fn radar_campaign_surveyed(
                     yaw,
                     // Posts are absorber-covered (not part of the radar scene): `mount=none`.
                     model_reference: format!("osiris:trihedral?edge_m={}&mount=none", t.edge),
+                    velocity: target_velocity,
                 });
                 // Model: from the logged box (apex at the back of the box, 2a/√6 below its top).
                 let apex_log = apex_from_box(c_log, yaw, t.edge);
                 let rel = apex_log - sensor;
                 let snr_s = radar_snr_db(&model, sensor, apex_log, t.edge);
+                // OSI radial velocity: positive towards the sensor.
+                let towards = |rel: DVec3| -rel.normalize().dot(target_velocity);
                 if snr_s >= DET_THRESHOLD_DB {
                     s_dets.push(osi3::RadarDetection {
                         object_id: ident(t.id),
                         position: spherical(rel),
-                        radial_velocity: Some(0.0),
+                        radial_velocity: Some(towards(rel)),
                         rcs: (!design.snr_semantics).then(|| report(snr_s, rel.length())),
                         snr: design.snr_semantics.then_some(snr_s),
                         existence_probability: Some(1.0),
@@ -774,6 +861,11 @@ pub fn radar_campaign_surveyed(
                 }
                 // Measurement: Rician target + complex noise in the linear domain, threshold,
                 // noisy range / azimuth, quantised power, calibration offset, no object id.
+                // The measuring radar: the target where it is `clock_s` later, seen from a frame
+                // turned by `yaw_true` about the vertical through the sensor.
+                let apex_true = sensor
+                    + glam::DMat3::from_rotation_z(-yaw_true)
+                        * (apex_true + target_velocity * clock_s - sensor);
                 let snr_t = radar_snr_db(&truth, sensor, apex_true, t.edge);
                 let amp = undb(snr_t).sqrt();
                 let clutter = rng.cnormal().scale(0.15);
@@ -796,7 +888,7 @@ pub fn radar_campaign_surveyed(
                             azimuth: Some(az_m),
                             elevation: Some(el_m),
                         }),
-                        radial_velocity: Some(0.03 * rng.normal()),
+                        radial_velocity: Some(towards(rel_t) + 0.03 * rng.normal()),
                         rcs: (!design.snr_semantics).then_some(value),
                         snr: design.snr_semantics.then_some(value),
                         existence_probability: Some(1.0),
@@ -1265,6 +1357,7 @@ fn write_board_frames(
                         "osiris:board?width_m={}&height_m={}&thickness_m=0.01&material=lambertian_{}&mount=none",
                         b.width, b.height, b.refl_label
                     ),
+                    velocity: DVec3::ZERO,
                 });
                 per_board(rng, b, c_true, c_log, yaw, &mut m_dets, &mut s_dets);
             }
@@ -1481,6 +1574,11 @@ impl FmcwCase {
 /// The LiDAR's mounting on the host (x, z), m, as the campaigns write it.
 pub fn lidar_mounting() -> (f64, f64) {
     (HOST_LEN / 2.0, LIDAR_MOUNT_H - HOST_H / 2.0)
+}
+
+/// The radar's mounting (x, z) on the host, m (as in the campaigns' `consistency.toml`).
+pub fn radar_mounting() -> (f64, f64) {
+    (HOST_LEN / 2.0, RADAR_MOUNT_H - HOST_H / 2.0)
 }
 
 /// Laser linewidth of the phase-noise case, Hz (GUESSED: a DFB-class laser; −2.7 dB at 50 m).

@@ -253,6 +253,7 @@ pub fn bench_config(scene: &CameraBenchScene) -> (CommonConfig, CameraConfig) {
             position_m: [1.5, 0.0, 0.55],
             orientation_rad: [0.0; 3],
         },
+        calibration: Default::default(),
         min_visible_fraction: 0.2,
         effects: Default::default(),
         weather: None,

@@ -296,6 +296,11 @@ impl CameraSensor {
     pub fn times(&self) -> StageTimes {
         self.physics().times
     }
+
+    /// The recognition's measurements of the last step (every object seen, detected or not).
+    pub fn last_measurements(&self) -> &[crate::recognition::camera::Measurement] {
+        self.physics().recognition.measurements()
+    }
 }
 
 /// A RAW image as a `CameraImage`: little-endian u16 samples (clipped to the image's largest code)
@@ -465,8 +470,9 @@ impl Physics for CameraPhysics {
         chain.isp.process(&b.linear, &mut b.rgb, &mut b.luminance);
         self.times.isp_s = t.elapsed().as_secs_f64();
 
-        // Camera height above the road: straight down from the optical centre.
-        let origin = frame.sensor_origin();
+        // Camera height above the road: straight down from the optical centre where the camera
+        // believes it is (its nominal mounting; its calibration).
+        let origin = frame.nominal_pose.position;
         let camera_height_m = frame
             .space
             .closest_hit(&Ray::new(origin, DVec3::NEG_Z).with_t_max(50.0))
@@ -479,6 +485,7 @@ impl Physics for CameraPhysics {
             lens: &chain.lens,
             ground_truth: gt,
             frame: &frame.frame,
+            reported_rotation: frame.nominal_frame.pose.rotation,
             camera_height_m,
             time_s: frame.time_s,
             seed,

@@ -106,5 +106,9 @@ pub(super) fn emit(p: &mut RadarPhysics, out: &mut StepOutput) {
             virtual_channels: Some(radar.array.n_virtual() as u32),
         }),
         range_doppler_map: rd_map,
+        azimuth_misalignment_rad: p.online_calibration.then(|| p.misalignment.estimate_rad()),
+        misalignment_detections: p
+            .online_calibration
+            .then_some(p.misalignment.detections_used),
     });
 }

@@ -10,12 +10,15 @@
 //!   impairments, windowed range / Doppler FFTs, the range-Doppler map.
 //! * [`processing`]: processing parameters and thresholds; CFAR, peak interpolation, velocity
 //!   disambiguation and angle estimation (further `impl` blocks of the baseband's chain).
+//! * [`calibration`]: the radar's online azimuth calibration from stationary targets
+//!   (`radar.mounting_misalignment`).
 //! * `export`: the cycle's content of SensorData (detections, moving objects) and of the
 //!   PerceptionData radar block; the shared loop is `crate::physical`.
 
 pub mod antenna;
 pub mod baseband;
 pub mod bench;
+pub mod calibration;
 mod export;
 pub mod preset;
 pub mod processing;
@@ -97,7 +100,13 @@ pub struct RadarConfig {
 
 /// Every effect of the radar model.
 pub fn effects() -> Vec<EffectInfo> {
-    [propagation::EFFECTS, antenna::EFFECTS, baseband::EFFECTS].concat()
+    [
+        propagation::EFFECTS,
+        antenna::EFFECTS,
+        baseband::EFFECTS,
+        calibration::EFFECTS,
+    ]
+    .concat()
 }
 
 /// The physical radar sensor model: the shared loop of [`PhysicalSensor`] around the radar's
@@ -118,6 +127,10 @@ pub struct RadarPhysics {
     detections: Vec<RadarDetection>,
     /// The recognised moving objects of the cycle (swapped into the output by `emit`).
     moving: Vec<osi3::DetectedMovingObject>,
+    /// `radar.mounting_misalignment`: the online azimuth calibration runs.
+    online_calibration: bool,
+    /// Its running estimate.
+    misalignment: calibration::MisalignmentEstimator,
 }
 
 impl Physics for RadarPhysics {
@@ -146,6 +159,7 @@ impl Physics for RadarPhysics {
         let recognition = RadarRecognition::new(&radar.recognition)?;
         Ok(RadarPhysics {
             antennas: Antennas::new(&radar.front_end, &effects),
+            online_calibration: effects.is_on(&calibration::MOUNTING_MISALIGNMENT),
             radar,
             effects,
             propagator,
@@ -155,6 +169,7 @@ impl Physics for RadarPhysics {
             chain_out: Vec::new(),
             detections: Vec::new(),
             moving: Vec::new(),
+            misalignment: calibration::MisalignmentEstimator::default(),
         })
     }
 
@@ -189,10 +204,22 @@ impl Physics for RadarPhysics {
                 rcs_dbsm: rcs_estimate_dbsm(&self.radar, &self.antennas, d),
                 object_id: d.object_id,
             }));
+        let ego = ego_state(frame);
+        // The online azimuth calibration: estimate from the raw azimuths, then correct them.
+        if self.online_calibration {
+            let v_s = ego
+                .sensor_pose
+                .inverse_transform_vector(ego.sensor_velocity_m_s);
+            self.misalignment.update(v_s, &self.detections);
+            let delta = self.misalignment.estimate_rad();
+            for d in &mut self.detections {
+                d.azimuth_rad = crate::frames::wrap_angle(d.azimuth_rad + delta);
+            }
+        }
         // Recognise: detections → moving objects.
         self.moving.clear();
         self.recognition
-            .step(&ego_state(frame), &self.detections, &mut self.moving);
+            .step(&ego, &self.detections, &mut self.moving);
         Ok(())
     }
 
@@ -206,6 +233,7 @@ impl Physics for RadarPhysics {
 
     fn reset(&mut self) {
         self.recognition.reset();
+        self.misalignment.reset();
         self.paths.clear();
         self.chain_out.clear();
         self.detections.clear();
@@ -232,6 +260,11 @@ impl RadarSensor {
     /// The chain detections of the last step.
     pub fn last_chain_detections(&self) -> &[ChainDetection] {
         &self.physics().chain_out
+    }
+
+    /// The online azimuth calibration's running estimate (`radar.mounting_misalignment`).
+    pub fn misalignment(&self) -> &calibration::MisalignmentEstimator {
+        &self.physics().misalignment
     }
 
     /// Ray tubes launched in the last step.

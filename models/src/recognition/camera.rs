@@ -309,9 +309,15 @@ pub struct CameraRecognitionInput<'a> {
     pub lens: &'a dyn CameraLens,
     /// The SensorView's ground truth (object classes and sizes; never their positions).
     pub ground_truth: &'a osi3::GroundTruth,
-    /// The sensor frame in global coordinates (for the OSI output in the host frame).
+    /// The true sensor frame in global coordinates (where the ground truth projects into the
+    /// image: the occlusion reference).
     pub frame: &'a SensorFrame,
-    /// Height of the camera's optical centre above the road, m.
+    /// The sensor → global rotation the camera believes (its nominal mounting on the host,
+    /// `WorldFrame::nominal_frame`): levels the pixel rays for the ground-plane distance. The same
+    /// as `frame.pose.rotation` for a calibrated camera.
+    pub reported_rotation: DMat3,
+    /// Height of the camera's optical centre above the road as the camera believes it (its
+    /// nominal mounting), m.
     pub camera_height_m: f64,
     pub time_s: f64,
     pub seed: u64,
@@ -497,7 +503,9 @@ impl CameraRecognition {
         let frame = input.frame;
         let rays = lens.ray_directions();
         let (fx, fy) = lens.focal_length_px();
-        let r_s = frame.pose.rotation;
+        // The camera levels its rays with the rotation it believes it has (a pitch error of the
+        // mounting biases the ground-plane distance, as on a real camera).
+        let r_s = input.reported_rotation;
         // Elevation tangent of a pixel ray in the levelled frame (global axes), and its
         // horizontal direction (sensor frame).
         let elev_tan = |u: usize, v: usize| -> f64 {

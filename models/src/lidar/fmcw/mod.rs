@@ -298,7 +298,8 @@ mod tests {
             [
                 "lidar.fmcw_speckle",
                 "lidar.fmcw_phase_noise",
-                "lidar.fmcw_chirp_nonlinearity"
+                "lidar.fmcw_chirp_nonlinearity",
+                "lidar.fmcw_ego_doppler"
             ]
         );
     }
