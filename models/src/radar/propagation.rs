@@ -1204,10 +1204,7 @@ impl Propagator {
                 let phase = au * x + av * y + quu * x * x + 2.0 * quv * x * y + qvv * y * y;
                 let gu = au + 2.0 * quu * x + 2.0 * quv * y;
                 let gv = av + 2.0 * quv * x + 2.0 * qvv * y;
-                sum += Complex64::from_polar(
-                    sinc(0.5 * gu * cu) * sinc(0.5 * gv * cv),
-                    phase,
-                );
+                sum += Complex64::from_polar(sinc(0.5 * gu * cu) * sinc(0.5 * gv * cv), phase);
             }
         }
         sum / (m * m) as f64

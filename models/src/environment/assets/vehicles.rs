@@ -208,14 +208,19 @@ fn arc_outline(
         } else {
             DVec2::new(x_end - rc, hw - rc)
         };
-        let phi1 = (corner - n_c).to_angle().clamp(0.0, 0.5 * std::f64::consts::PI);
+        let phi1 = (corner - n_c)
+            .to_angle()
+            .clamp(0.0, 0.5 * std::f64::consts::PI);
         let phi2 = (corner - s_c)
             .to_angle()
             .clamp(phi1, 0.5 * std::f64::consts::PI);
         let mut out = Vec::new();
         let mut arc = |c: DVec2, r: f64, a0: f64, a1: f64, last: bool| {
             let span = a1 - a0;
-            let n = ((span / max_step_rad).ceil().max((span * r / max_len_m).ceil()) as usize).max(1);
+            let n = ((span / max_step_rad)
+                .ceil()
+                .max((span * r / max_len_m).ceil()) as usize)
+                .max(1);
             for k in 0..n + usize::from(last) {
                 let a = a0 + span * k as f64 / n as f64;
                 let nrm = DVec2::from_angle(a);
@@ -358,7 +363,11 @@ pub(super) fn car(asset: &AssetRef, d: DVec3, shape: CarShape) -> Mesh {
         6,
     );
     // The inward offsets must stay below the corner radius (else the offset outline folds over).
-    let rc_eff = r_corner.min(0.2 * l).min(0.3 * w).min(0.9 * hw).min(0.9 * 0.49 * l);
+    let rc_eff = r_corner
+        .min(0.2 * l)
+        .min(0.3 * w)
+        .min(0.9 * hw)
+        .min(0.9 * 0.49 * l);
     let deepest = section.iter().map(|q| -q.x).fold(0.0, f64::max);
     if deepest > 0.8 * rc_eff && deepest > 0.0 {
         let k = 0.8 * rc_eff / deepest;
@@ -441,7 +450,11 @@ pub(super) fn car(asset: &AssetRef, d: DVec3, shape: CarShape) -> Mesh {
     let mirror = DVec3::new(0.09, 0.05f64.min(0.03 * w), 0.06);
     for s in [-1.0, 1.0] {
         b.ellipsoid(
-            DVec3::new(mirror_x, s * (0.5 * w - mirror.y - 0.002), f.p(0.0, 0.0, 0.6).z),
+            DVec3::new(
+                mirror_x,
+                s * (0.5 * w - mirror.y - 0.002),
+                f.p(0.0, 0.0, 0.6).z,
+            ),
             mirror,
             12,
             8,
@@ -519,11 +532,23 @@ pub(super) fn car(asset: &AssetRef, d: DVec3, shape: CarShape) -> Mesh {
     let (hy0, hy1) = (0.26 * w, 0.38 * w);
     let hx1 = outline_x(&outline, hy0, true) + 0.005;
     let hx0 = outline_x(&outline, hy1, true) - 0.03;
-    lamp_pair(&mut b, (hx0.min(hx1 - 0.01), hx1), (hy0, hy1), z(0.33, 0.42), p.head);
+    lamp_pair(
+        &mut b,
+        (hx0.min(hx1 - 0.01), hx1),
+        (hy0, hy1),
+        z(0.33, 0.42),
+        p.head,
+    );
     let (ty0, ty1) = (0.26 * w, 0.38 * w);
     let tx0 = outline_x(&outline, ty0, false) - 0.005;
     let tx1 = outline_x(&outline, ty1, false) + 0.03;
-    lamp_pair(&mut b, (tx0, tx1.max(tx0 + 0.01)), (ty0, ty1), z(0.38, 0.46), p.tail);
+    lamp_pair(
+        &mut b,
+        (tx0, tx1.max(tx0 + 0.01)),
+        (ty0, ty1),
+        z(0.38, 0.46),
+        p.tail,
+    );
 
     b.fit(d);
     b.into_mesh()
