@@ -153,10 +153,7 @@ fn ellipsoid_obj(name: &str, s: [f64; 3], n: usize, m: usize) -> String {
         }
         writeln!(f, "f {} {} {top}", row(m - 1, k), row(m - 1, k + 1)).unwrap();
     }
-    format!(
-        "osiris:mesh?path={}&material=steel",
-        path.to_str().unwrap()
-    )
+    format!("osiris:mesh?path={}&material=steel", path.to_str().unwrap())
 }
 
 /// Geometrical optics: a steel sphere of radius 0.5 m (σ = πa² = −1.0 dBm²) and a steel ellipsoid of
@@ -170,12 +167,23 @@ fn curved_test_bodies_match_geometrical_optics() {
     let ellipsoid = ellipsoid_obj("ellipsoid", [0.3, 0.6, 0.45], 48, 25);
     let cases = [
         (&sphere, [0.5, 0.5, 0.5], 0.5, 0.5),
-        (&ellipsoid, [0.3, 0.6, 0.45], 0.6 * 0.6 / 0.3, 0.45 * 0.45 / 0.3),
+        (
+            &ellipsoid,
+            [0.3, 0.6, 0.45],
+            0.6 * 0.6 / 0.3,
+            0.45 * 0.45 / 0.3,
+        ),
     ];
     for (reference, s, a1, a2) in cases {
         for r in [10.0, 20.0, 40.0] {
             let mut sensor = radar();
-            let obj = at_aspect(reference, r + s[0], H, 0.0, [2.0 * s[0], 2.0 * s[1], 2.0 * s[2]]);
+            let obj = at_aspect(
+                reference,
+                r + s[0],
+                H,
+                0.0,
+                [2.0 * s[0], 2.0 * s[1], 2.0 * s[2]],
+            );
             let d = detections(&mut sensor, &view(vec![obj]));
             let got = strongest(&d, r, 0.5);
             let expected = curved_specular_dbsm(a1, a2, r);
@@ -309,7 +317,11 @@ fn pedestrian_sector_means_are_those_of_a_person() {
 #[test]
 fn cyclist_sector_means_are_those_of_a_bicycle_with_rider() {
     let sweep = aspect_sweep("osiris:cyclist", [1.8, 0.6, 1.75], 20.0, 3.0, 1.5);
-    for (name, c, expected) in [("front", 0.0, -5.0), ("side", 90.0, 0.0), ("back", 180.0, -5.0)] {
+    for (name, c, expected) in [
+        ("front", 0.0, -5.0),
+        ("side", 90.0, 0.0),
+        ("back", 180.0, -5.0),
+    ] {
         let m = sector_mean(&sweep, c, 30.0);
         println!("cyclist at 20 m, {name}: {m:.2} dBm² (reference {expected})");
         assert!((m - expected).abs() <= 5.0, "{name}: {m:.2} dBm²");
