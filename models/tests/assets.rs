@@ -86,10 +86,6 @@ fn every_builtin_asset_is_closed_and_outward() {
 #[test]
 fn genus_zero_assets_have_euler_characteristic_two_per_component() {
     for r in [
-        "osiris:car",
-        "osiris:van",
-        "osiris:truck",
-        "osiris:bus",
         "osiris:pedestrian",
         "osiris:guardrail",
         "osiris:pole",
@@ -105,13 +101,27 @@ fn genus_zero_assets_have_euler_characteristic_two_per_component() {
             "{r}"
         );
     }
-    // Bicycle tyres are rings (genus 1): χ = 2·(components − rings).
-    let m = build("osiris:cyclist", None);
-    let rings = components(&m)
-        .iter()
-        .filter(|c| euler_characteristic(&submesh(&m, c)) == 0)
-        .count();
-    assert_eq!(rings, 4, "two tyres and two rims");
+    // Tyres (and bicycle rims) are tori (genus 1): χ = 2·(components − rings).
+    for (r, expected) in [
+        ("osiris:cyclist", 4),
+        ("osiris:car", 4),
+        ("osiris:van", 4),
+        ("osiris:bus", 4),
+        ("osiris:truck", 6),
+    ] {
+        let m = build(r, None);
+        let chi: Vec<i64> = components(&m)
+            .iter()
+            .map(|c| euler_characteristic(&submesh(&m, c)))
+            .collect();
+        let rings = chi.iter().filter(|&&x| x == 0).count();
+        assert_eq!(rings, expected, "{r}: tyres (and rims)");
+        assert_eq!(
+            euler_characteristic(&m),
+            2 * (chi.len() - rings) as i64,
+            "{r}"
+        );
+    }
 }
 
 #[test]

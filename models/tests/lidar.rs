@@ -650,10 +650,13 @@ fn bad_configuration_values_name_their_key() {
 }
 
 #[test]
-fn recognition_boxes_a_car_within_0_3_m_of_ground_truth() {
+fn recognition_boxes_a_car_within_0_4_m_of_ground_truth() {
     // End to end: VLS-128 (90° window) → points → recognition, three cycles. Cars seen obliquely
     // (rear and side visible) and broadside; the centre in the sensor frame is (x, y, 0.75 − 1).
     // (Seen end-on, only the rear face visible, the box centre was 0.4 m short: not asserted here.)
+    // The built-in car is rounded (plan corners of 0.35 m, sides of 10 m radius, flanks of 1.5 m
+    // vertical radius: models/ASSETS.md); the L-shape fit of such a body lands up to 0.4 m from the
+    // box centre (0.37 m at (12, −3), towards the sensor; the box-shaped car gave ≤ 0.3 m).
     for (cx, cy, yaw) in [(12.0, -3.0, -0.7), (15.0, 0.0, PI / 2.0), (20.0, 5.0, 0.8)] {
         let v = view(vec![], vec![car(9, [cx, cy, 0.75], yaw, 0.0)]);
         let mut cfg = config(LidarConfig::default(), EffectSwitches::new());
@@ -686,7 +689,7 @@ fn recognition_boxes_a_car_within_0_3_m_of_ground_truth() {
             .unwrap();
         let d = (best - want).truncate().length();
         assert!(
-            d <= 0.3,
+            d <= 0.4,
             "({cx}, {cy}, yaw {yaw}): box centre {best}, {d} m from ground truth"
         );
     }

@@ -307,40 +307,85 @@ impl Builder {
         self.close_component(start);
     }
 
-    /// Closed ring (a tube of rectangular cross-section, genus 1) around `axis` through `centre`:
-    /// radii `r_in..r_out`, `width` along the axis (e.g. a tyre).
-    pub fn ring(
+    /// Closed torus (genus 1) around `axis` through `centre`: the tube's centre circle has radius
+    /// `major_r`, its cross-section is an ellipse of semi-axes `(r_radial, r_axial)` (e.g. a tyre:
+    /// half the section height, half the section width). Every vertex is shared, so the surface is
+    /// smooth where a radar interpolates its normals (`radar::propagation`).
+    pub fn torus(
         &mut self,
         centre: DVec3,
         axis: DVec3,
-        (r_in, r_out): (f64, f64),
-        width: f64,
-        segments: usize,
+        major_r: f64,
+        (r_radial, r_axial): (f64, f64),
+        (segments, section_segments): (usize, usize),
         part: u16,
     ) {
         let d = axis.normalize();
         let (e1, e2) = section_axes(d);
         let n = segments.max(3);
+        let m = section_segments.max(3);
         let start = self.triangles.len();
-        let h = d * (width * 0.5);
-        let stations: Vec<[u32; 4]> = (0..n)
+        let rows: Vec<Vec<u32>> = (0..n)
             .map(|k| {
                 let t = std::f64::consts::TAU * k as f64 / n as f64;
                 let radial = e1 * t.cos() + e2 * t.sin();
-                [
-                    self.vertex(centre + radial * r_in - h),
-                    self.vertex(centre + radial * r_out - h),
-                    self.vertex(centre + radial * r_out + h),
-                    self.vertex(centre + radial * r_in + h),
-                ]
+                (0..m)
+                    .map(|j| {
+                        let s = std::f64::consts::TAU * j as f64 / m as f64;
+                        self.vertex(
+                            centre
+                                + radial * (major_r + r_radial * s.cos())
+                                + d * (r_axial * s.sin()),
+                        )
+                    })
+                    .collect()
             })
             .collect();
         for k in 0..n {
-            let a = stations[k];
-            let b = stations[(k + 1) % n];
-            for s in 0..4 {
-                let s1 = (s + 1) % 4;
-                self.quad(a[s], b[s], b[s1], a[s1], part);
+            let (a, b) = (&rows[k], &rows[(k + 1) % n]);
+            for j in 0..m {
+                let j1 = (j + 1) % m;
+                let q = [a[j], b[j], b[j1], a[j1]];
+                self.quad(q[0], q[1], q[2], q[3], part);
+            }
+        }
+        self.close_component(start);
+    }
+
+    /// Closed loft through `rings` (closed loops of equal length, consecutive rings stitched with
+    /// quads); the first and the last ring are closed by fans from their centroids (flat caps when
+    /// the rings are planar). Vertices are shared, so the lofted surface is smooth where a radar
+    /// interpolates its normals.
+    pub fn loft(&mut self, rings: &[Vec<DVec3>], part: u16) {
+        let Some(n) = rings.first().map(Vec::len) else {
+            return;
+        };
+        if n < 3 || rings.len() < 2 || rings.iter().any(|r| r.len() != n) {
+            return;
+        }
+        let start = self.triangles.len();
+        let ids: Vec<Vec<u32>> = rings
+            .iter()
+            .map(|r| r.iter().map(|&p| self.vertex(p)).collect())
+            .collect();
+        for w in ids.windows(2) {
+            for k in 0..n {
+                let k1 = (k + 1) % n;
+                self.quad(w[0][k], w[0][k1], w[1][k1], w[1][k], part);
+            }
+        }
+        for (ring, ids, flip) in [
+            (&rings[0], &ids[0], true),
+            (&rings[rings.len() - 1], &ids[ids.len() - 1], false),
+        ] {
+            let c = self.vertex(ring.iter().copied().sum::<DVec3>() / n as f64);
+            for k in 0..n {
+                let k1 = (k + 1) % n;
+                if flip {
+                    self.tri(c, ids[k1], ids[k], part);
+                } else {
+                    self.tri(c, ids[k], ids[k1], part);
+                }
             }
         }
         self.close_component(start);
@@ -656,10 +701,30 @@ mod tests {
         check_closed_outward(b, None);
 
         let mut b = Builder::new();
-        b.ring(DVec3::ZERO, DVec3::Y, (0.5, 0.6), 0.1, 24, p);
+        b.torus(DVec3::ZERO, DVec3::Y, 0.5, (0.1, 0.05), (48, 16), p);
         let m = b.clone().into_mesh();
         assert_eq!(euler_characteristic(&m), 0);
+        // Pappus: V = 2πR·(area of the section), the 48 × 16 polygons slightly less.
+        let v = signed_volume(&m);
+        let exact = std::f64::consts::TAU * 0.5 * std::f64::consts::PI * 0.1 * 0.05;
+        assert!(v > 0.95 * exact && v < exact, "torus volume {v} vs {exact}");
         check_closed_outward(b, None);
+
+        // A loft of three squares (a closed box with a waist): genus 0, outward.
+        let sq = |h: f64, z: f64| {
+            vec![
+                DVec3::new(-h, -h, z),
+                DVec3::new(h, -h, z),
+                DVec3::new(h, h, z),
+                DVec3::new(-h, h, z),
+            ]
+        };
+        let mut b = Builder::new();
+        b.loft(&[sq(1.0, 0.0), sq(0.5, 1.0), sq(1.0, 2.0)], p);
+        let m = b.clone().into_mesh();
+        assert_eq!(euler_characteristic(&m), 2);
+        // Two frusta of square section: 2 · (h/3)(A1 + A2 + √(A1 A2)) = 2 · (4 + 1 + 2)/3.
+        check_closed_outward(b, Some(14.0 / 3.0));
 
         // An L-shaped (non-convex) prism, swept in a left-handed way: still outward.
         let l = [

@@ -112,7 +112,11 @@ pub(super) fn pedestrian(asset: &AssetRef, d: DVec3) -> Mesh {
     b.into_mesh()
 }
 
-/// A bicycle-style wheel: tyre ring, rim ring, hub, spokes (optional), axle along y.
+/// A bicycle-style wheel, axle along y: the tyre a torus of elliptical section (`tyre` = section
+/// height, width), the rim a torus of elliptical section inside it (`rim` = depth, width: a box rim's
+/// rounded section rather than a flat annulus), an ellipsoidal hub and, optionally, 16 round spokes
+/// (2 mm wires) per side from the hub flanges (±30 mm, the dish of a real wheel, so they are not all
+/// perpendicular to a broadside view) to the rim.
 fn spoked_wheel(
     b: &mut Builder,
     centre: DVec3,
@@ -122,28 +126,37 @@ fn spoked_wheel(
     parts: (u16, u16, Option<u16>),
 ) {
     let (wheels, rims, spokes) = parts;
-    b.ring(centre, DVec3::Y, (r - tyre.0, r), tyre.1, 24, wheels);
-    b.ring(
+    b.torus(
         centre,
         DVec3::Y,
-        (r - tyre.0 - rim.0, r - tyre.0),
-        rim.1,
-        24,
+        r - 0.5 * tyre.0,
+        (0.5 * tyre.0, 0.5 * tyre.1),
+        (48, 10),
+        wheels,
+    );
+    let rim_r = r - tyre.0 - 0.5 * rim.0;
+    b.torus(
+        centre,
+        DVec3::Y,
+        rim_r,
+        (0.5 * rim.0, 0.5 * rim.1),
+        (48, 10),
         rims,
     );
-    b.cylinder(
-        centre - DVec3::Y * 0.05,
-        centre + DVec3::Y * 0.05,
-        0.025,
-        8,
-        rims,
-    );
+    b.ellipsoid(centre, v(0.025, 0.05, 0.025), 10, 6, rims);
     if let Some(sp) = spokes {
-        let reach = r - tyre.0 - 0.5 * rim.0;
-        for k in 0..4 {
-            let a = std::f64::consts::PI * k as f64 / 4.0;
+        let inner = rim_r - 0.5 * rim.0;
+        for k in 0..32 {
+            let a = std::f64::consts::TAU * (k as f64 + 0.25 * (k % 2) as f64) / 32.0;
             let dir = v(a.cos(), 0.0, a.sin());
-            b.bar(centre - dir * reach, centre + dir * reach, 0.01, 0.003, sp);
+            let side = if k % 2 == 0 { 1.0 } else { -1.0 };
+            b.cylinder(
+                centre + dir * 0.02 + DVec3::Y * (0.03 * side),
+                centre + dir * inner,
+                0.001,
+                8,
+                sp,
+            );
         }
     }
 }
