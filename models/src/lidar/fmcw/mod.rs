@@ -131,7 +131,7 @@ pub struct FmcwConfig {
     /// How each ramp's windowed spectrum is produced: `"spectral"` (default: synthesized in the
     /// frequency domain on a few bins around each beat tone, false alarms elsewhere in closed
     /// form; physics.md §2.10) or `"time"` (the reference: the beat signal sample by sample, then
-    /// the FFT; ≈ 20× slower).
+    /// the FFT; slower).
     pub synthesis: Synthesis,
 }
 
