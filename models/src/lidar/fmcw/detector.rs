@@ -760,7 +760,7 @@ impl FmcwDetector {
         loop {
             let u: f64 = rng.random();
             let skip = ((1.0 - u).ln() / ln_q).floor();
-            if !(skip < (uncovered - pos) as f64) {
+            if skip >= (uncovered - pos) as f64 {
                 break;
             }
             pos += skip as usize;
