@@ -139,6 +139,22 @@ pub struct FmcwConfig {
     pub max_returns_per_beam: usize,
     /// Largest |range rate| accepted when pairing up and down peaks, m/s (guessed 100 m/s).
     pub max_range_rate_m_s: f64,
+    /// How each ramp's windowed spectrum is produced: `"spectral"` (default: synthesized in the
+    /// frequency domain on a few bins around each beat tone, false alarms elsewhere in closed
+    /// form; physics.md §2.10) or `"time"` (the reference: the beat signal sample by sample, then
+    /// the FFT; slower).
+    pub synthesis: Synthesis,
+}
+
+/// [`FmcwConfig::synthesis`]: how the beat spectrum of a ramp is produced.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Synthesis {
+    /// Frequency-domain synthesis around the tones (statistically equivalent, fast).
+    #[default]
+    Spectral,
+    /// Time-domain synthesis and FFT (the reference).
+    Time,
 }
 
 impl Default for FmcwConfig {
@@ -161,6 +177,7 @@ impl Default for FmcwConfig {
             false_alarm_probability: 1.0e-6,
             max_returns_per_beam: 4,
             max_range_rate_m_s: 100.0,
+            synthesis: Synthesis::Spectral,
         }
     }
 }
@@ -268,6 +285,11 @@ mod tests {
         let partial: FmcwConfig = serde_json::from_str(r#"{"linewidth_hz": 1e4}"#).unwrap();
         assert_eq!(partial.linewidth_hz, 1e4);
         assert!(serde_json::from_str::<FmcwConfig>(r#"{"linewidth": 1e4}"#).is_err());
+        let time: FmcwConfig = serde_json::from_str(r#"{"synthesis": "time"}"#).unwrap();
+        assert_eq!(time.synthesis, Synthesis::Time);
+        assert_eq!(FmcwConfig::default().synthesis, Synthesis::Spectral);
+        let bad = serde_json::from_str::<FmcwConfig>(r#"{"synthesis": "fast"}"#);
+        assert!(bad.unwrap_err().to_string().contains("spectral"));
     }
 
     #[test]
