@@ -257,6 +257,9 @@ pub struct RadarChain {
     pub(super) path_bins: Vec<(f64, f64, u32)>,
     /// Rows (elevation indices) of the angle grid holding virtual elements.
     pub(super) el_rows: Vec<usize>,
+    /// Elevation search steering phasors e^{jπ z_r s_i}, `s_i = −1 + 2i/(8·el_len)`, row-minor
+    /// (`[i · el_rows.len() + r]`; empty with fewer than three rows): planned once.
+    pub(super) el_steer: Vec<Complex64>,
     /// Σ w_k² of the angle window.
     pub(super) angle_win_sq: f64,
     /// Per virtual element: index into `el_rows` of its row.
@@ -388,6 +391,19 @@ impl RadarChain {
             .collect();
         el_rows.sort_unstable();
         el_rows.dedup();
+        let el_steer: Vec<Complex64> = if has_el && el_rows.len() >= 3 {
+            let m = 8 * el_len;
+            (0..m)
+                .flat_map(|i| {
+                    let s = -1.0 + 2.0 * i as f64 / m as f64;
+                    el_rows.iter().map(move |&r| {
+                        Complex64::from_polar(1.0, std::f64::consts::PI * r as f64 * s)
+                    })
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         let el_row_of: Vec<usize> = virt
             .iter()
             .map(|p| {
@@ -564,6 +580,7 @@ impl RadarChain {
             timings_s: [0.0; 4],
             dets: Vec::new(),
             path_bins: Vec::new(),
+            el_steer,
             el_rows,
             angle_win_sq,
             el_row_of,

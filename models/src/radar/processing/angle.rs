@@ -605,12 +605,13 @@ impl RadarChain {
                 .clamp(-1.0, 1.0);
         }
         let m = 8 * self.el_len;
+        let nr = self.el_rows.len();
         let val = |i: usize| {
-            let s = -1.0 + 2.0 * (i % m) as f64 / m as f64;
+            let steer = &self.el_steer[(i % m) * nr..(i % m + 1) * nr];
             b.rows
                 .iter()
-                .enumerate()
-                .map(|(ri, sr)| sr * Complex64::from_polar(1.0, std::f64::consts::PI * rz(ri) * s))
+                .zip(steer)
+                .map(|(sr, e)| sr * e)
                 .sum::<Complex64>()
                 .norm_sqr()
         };
