@@ -469,10 +469,6 @@ impl FmcwDetector {
                 -1
             }
         };
-        let sign = if ramp == 0 { 1.0 } else { -1.0 };
-        let t0 = self.plan.window_start_s();
-        let tc = self.config.chirp_time_s;
-        let lambda = self.plan.wavelength_m;
         let two_pi = 2.0 * std::f64::consts::PI;
         let step_up = Complex::from_polar(1.0, 2.0 * self.pn_sigma);
         let step_down = step_up.conj();
@@ -488,23 +484,8 @@ impl FmcwDetector {
                 amp *= Complex::new(x, y) * std::f64::consts::FRAC_1_SQRT_2;
             }
             s.amps[i][ramp] = amp.norm_sqr();
-            let (f_up, f_down) = self.plan.beat_hz(r.range_m, r.range_rate_m_s);
-            let f_b = if ramp == 0 { f_up } else { f_down };
-            // Phase φ(t) = φ₀ + c1·t + c2·t² in absolute ramp time t.
-            let tau = ChirpPlan::delay_s(r.range_m);
-            let mut c1 = two_pi * f_b;
-            let mut c2 = 0.0;
-            if self.nonlinearity {
-                // ψ(t) = 2πδ(2t²/T − 4t³/(3T²)) → ψ(t) − ψ(t − τ) has the t² and t terms below.
-                let delta = self.config.nonlinearity_hz;
-                c2 += sign * -two_pi * delta * 4.0 * tau / (tc * tc);
-                c1 += sign * two_pi * delta * (4.0 * tau / tc) * (1.0 + tau / tc);
-            }
-            let phi0 = (sign * 4.0 * std::f64::consts::PI * r.range_m / lambda).rem_euclid(two_pi);
-            let start = phi0 + c1 * t0 + c2 * t0 * t0;
-            let big_c1 = (c1 + 2.0 * c2 * t0) * dt;
-            let big_c2 = c2 * dt * dt;
-            let mut z = amp * Complex::from_polar(1.0, start.rem_euclid(two_pi));
+            let (start, big_c1, big_c2) = self.tone_phase(r, ramp);
+            let mut z = amp * Complex::from_polar(1.0, start);
             let mut rot = Complex::from_polar(1.0, (big_c1 + big_c2).rem_euclid(two_pi));
             let q = Complex::from_polar(1.0, (2.0 * big_c2).rem_euclid(two_pi));
             let d = if self.phase_noise { d_of(r) } else { 0 };
@@ -822,6 +803,7 @@ impl FmcwDetector {
         let mut c1 = two_pi * f_b;
         let mut c2 = 0.0;
         if self.nonlinearity {
+            // ψ(t) = 2πδ(2t²/T − 4t³/(3T²)) → ψ(t) − ψ(t − τ) has the t² and t terms below.
             let delta = self.config.nonlinearity_hz;
             c2 += sign * -two_pi * delta * 4.0 * tau / (tc * tc);
             c1 += sign * two_pi * delta * (4.0 * tau / tc) * (1.0 + tau / tc);
