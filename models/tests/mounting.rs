@@ -19,7 +19,7 @@ use std::f64::consts::PI;
 use osiris_models::frames::Calibration;
 use osiris_models::radar::RadarSensor;
 use osiris_models::sensor::{ModelMode, Mounting};
-use osiris_models::{SensorConfig, SensorKind, SensorModel, StepInput, StepOutput};
+use osiris_models::{SensorConfig, SensorKind, SensorModel, StepOutput};
 use osiris_proto::{osi3, timestamp_from_seconds};
 
 fn view_at(t_s: f64, objects: Vec<osi3::MovingObject>) -> osi3::SensorView {
@@ -37,23 +37,12 @@ fn view_at(t_s: f64, objects: Vec<osi3::MovingObject>) -> osi3::SensorView {
 }
 
 fn step(sensor: &mut dyn SensorModel, v: &osi3::SensorView) -> StepOutput {
-    let mut out = StepOutput::default();
     let t = v
         .timestamp
         .as_ref()
         .map(osiris_proto::timestamp_to_seconds)
         .unwrap_or(0.0);
-    sensor
-        .step(
-            &StepInput {
-                view: v,
-                time_s: t,
-                step_s: 0.05,
-            },
-            &mut out,
-        )
-        .expect("step");
-    out
+    common::step_at(sensor, v, t, 0.05)
 }
 
 fn config(kind: SensorKind, h: f64, calibration: Calibration) -> SensorConfig {

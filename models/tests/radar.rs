@@ -625,18 +625,7 @@ fn bad_config_is_a_config_error() {
 }
 
 fn step(sensor: &mut RadarSensor, v: &osi3::SensorView) -> StepOutput {
-    let mut out = StepOutput::default();
-    sensor
-        .step(
-            &StepInput {
-                view: v,
-                time_s: 0.0,
-                step_s: 0.05,
-            },
-            &mut out,
-        )
-        .expect("step");
-    out
+    common::step_at(sensor, v, 0.0, 0.05)
 }
 
 #[test]

@@ -6,7 +6,7 @@
 //! `v − 2 v_max round(v / 2 v_max)` with `2 v_max = λ / (2 N_tx T_c)`.
 
 mod common;
-use common::{db, moving_object, point_path, run_chain};
+use common::{db, moving_object, point_path, radar_detections, run_chain};
 
 use std::f64::consts::PI;
 
@@ -20,7 +20,7 @@ use osiris_models::radar::waveform::{ArrayConfig, WaveformConfig};
 use osiris_models::radar::{RadarConfig, RadarSensor};
 use osiris_models::registry::catalogue;
 use osiris_models::sensor::{ModelMode, Mounting};
-use osiris_models::{SensorConfig, SensorKind, SensorModel, StepInput, StepOutput};
+use osiris_models::{SensorConfig, SensorKind, StepOutput};
 use osiris_proto::{osi3, timestamp_from_seconds};
 
 /// Declared field of view of these tests (the default radar's): 90° × 10°.
@@ -345,31 +345,7 @@ fn config(h: f64, effects: &[(&str, bool)], processing: ProcessingConfig) -> Sen
 }
 
 fn step(sensor: &mut RadarSensor, v: &osi3::SensorView, t: f64) -> StepOutput {
-    let mut out = StepOutput::default();
-    sensor
-        .step(
-            &StepInput {
-                view: v,
-                time_s: t,
-                step_s: 0.05,
-            },
-            &mut out,
-        )
-        .expect("step");
-    out
-}
-
-fn detections(out: &StepOutput) -> Vec<osi3::RadarDetection> {
-    out.sensor_data
-        .feature_data
-        .as_ref()
-        .map(|f| {
-            f.radar_sensor
-                .iter()
-                .flat_map(|s| s.detection.clone())
-                .collect()
-        })
-        .unwrap_or_default()
+    common::step_at(sensor, v, t, 0.05)
 }
 
 /// A crowded street seen by the default radar at 0.5 m: 30 objects (cars, trucks, pedestrians,
@@ -417,7 +393,7 @@ fn crowded_scene_stays_in_the_field_of_view_with_physical_rcs() {
         (0..3)
             .flat_map(|k| {
                 let t = 0.05 * k as f64;
-                detections(&step(&mut s, &view(scene(t), t), t))
+                radar_detections(&step(&mut s, &view(scene(t), t), t))
             })
             .collect::<Vec<_>>()
     };
@@ -484,7 +460,7 @@ fn rcs_estimate_of_a_corner_reflector_matches_knott() {
         ))
         .unwrap();
         let vw = view(vec![trihedral(7 + k as u64, a, r, az, 0.5, v)], 0.0);
-        let d = detections(&step(&mut s, &vw, 0.0));
+        let d = radar_detections(&step(&mut s, &vw, 0.0));
         let best = d
             .iter()
             .max_by(|x, y| x.snr.unwrap().total_cmp(&y.snr.unwrap()))

@@ -4,14 +4,14 @@
 //! (closed form atan(±1/30) = ±1.91°).
 
 mod common;
-use common::moving_object;
+use common::{moving_object, radar_detections};
 
 use std::f64::consts::PI;
 
 use osiris_models::radar::RadarSensor;
 use osiris_models::radar::preset::RadarPreset;
 use osiris_models::sensor::{ModelMode, Mounting};
-use osiris_models::{SensorConfig, SensorKind, SensorModel, StepInput, StepOutput};
+use osiris_models::{SensorConfig, SensorKind, StepOutput};
 use osiris_proto::{osi3, timestamp_from_seconds};
 
 /// Sensor mounting height, m.
@@ -55,31 +55,7 @@ fn imaging_config(effects: &[(&str, bool)]) -> SensorConfig {
 
 fn step(cfg: SensorConfig, objects: Vec<osi3::MovingObject>) -> StepOutput {
     let mut s = RadarSensor::new(cfg).expect("radar");
-    let v = view(objects);
-    let mut out = StepOutput::default();
-    s.step(
-        &StepInput {
-            view: &v,
-            time_s: 0.0,
-            step_s: 0.05,
-        },
-        &mut out,
-    )
-    .expect("step");
-    out
-}
-
-fn detections(out: &StepOutput) -> Vec<osi3::RadarDetection> {
-    out.sensor_data
-        .feature_data
-        .as_ref()
-        .map(|f| {
-            f.radar_sensor
-                .iter()
-                .flat_map(|r| r.detection.clone())
-                .collect()
-        })
-        .unwrap_or_default()
+    common::step_at(&mut s, &view(objects), 0.0, 0.05)
 }
 
 fn range_of(d: &osi3::RadarDetection) -> f64 {
@@ -114,7 +90,7 @@ fn elevation_of_reflectors_above_and_below_the_sensor_at_30_m() {
             imaging_config(&[("radar.ground_multipath", false)]),
             vec![trihedral(7, 30.0, h)],
         );
-        let d = detections(&out);
+        let d = radar_detections(&out);
         let best = d
             .iter()
             .filter(|x| (range_of(x) - 30.0).abs() < 1.0)

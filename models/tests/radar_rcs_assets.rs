@@ -20,14 +20,14 @@
 //! * Bicycle with rider: see [`cyclist_sector_means_are_those_of_a_bicycle_with_rider`].
 
 mod common;
-use common::{db, moving_object};
+use common::{db, moving_object, radar_detections, step_at};
 
 use std::f64::consts::PI;
 use std::io::Write;
 
 use osiris_models::radar::RadarSensor;
 use osiris_models::sensor::{ModelMode, Mounting};
-use osiris_models::{SensorConfig, SensorKind, SensorModel, StepInput, StepOutput};
+use osiris_models::{SensorConfig, SensorKind};
 use osiris_proto::{osi3, timestamp_from_seconds};
 
 /// Sensor height, m.
@@ -60,33 +60,15 @@ fn view(objects: Vec<osi3::MovingObject>) -> osi3::SensorView {
 
 /// Reported detections (rcs dBm², distance m) of one frame.
 fn detections(sensor: &mut RadarSensor, v: &osi3::SensorView) -> Vec<(f64, f64)> {
-    let mut out = StepOutput::default();
-    sensor
-        .step(
-            &StepInput {
-                view: v,
-                time_s: 0.0,
-                step_s: 0.05,
-            },
-            &mut out,
-        )
-        .expect("step");
-    out.sensor_data
-        .feature_data
-        .as_ref()
-        .map(|f| {
-            f.radar_sensor
-                .iter()
-                .flat_map(|s| s.detection.iter())
-                .map(|d| {
-                    (
-                        d.rcs.unwrap(),
-                        d.position.as_ref().and_then(|p| p.distance).unwrap(),
-                    )
-                })
-                .collect()
+    radar_detections(&step_at(sensor, v, 0.0, 0.05))
+        .iter()
+        .map(|d| {
+            (
+                d.rcs.unwrap(),
+                d.position.as_ref().and_then(|p| p.distance).unwrap(),
+            )
         })
-        .unwrap_or_default()
+        .collect()
 }
 
 /// RCS of the strongest detection within `window_m` of range `r`, dBm² (−∞ when none).

@@ -154,3 +154,38 @@ pub fn lidar_step(
     .expect("step");
     (out, s)
 }
+
+/// One step of `sensor` on `view` at `time_s` (communication step `step_s`).
+pub fn step_at(
+    sensor: &mut dyn osiris_models::SensorModel,
+    view: &osi3::SensorView,
+    time_s: f64,
+    step_s: f64,
+) -> osiris_models::StepOutput {
+    let mut out = osiris_models::StepOutput::default();
+    sensor
+        .step(
+            &osiris_models::StepInput {
+                view,
+                time_s,
+                step_s,
+            },
+            &mut out,
+        )
+        .expect("step");
+    out
+}
+
+/// Every radar detection of a step's SensorData.
+pub fn radar_detections(out: &osiris_models::StepOutput) -> Vec<osi3::RadarDetection> {
+    out.sensor_data
+        .feature_data
+        .as_ref()
+        .map(|f| {
+            f.radar_sensor
+                .iter()
+                .flat_map(|s| s.detection.clone())
+                .collect()
+        })
+        .unwrap_or_default()
+}
