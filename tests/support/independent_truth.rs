@@ -1308,6 +1308,29 @@ fn trace_board(
     out
 }
 
+/// The part of a board campaign's `consistency.toml` that the pulsed and the FMCW LiDAR campaigns
+/// share: ground-truth uncertainty, association by object id and beam, bins, traces.
+fn board_campaign_tail(pos_sigma: f64) -> String {
+    format!(
+        r#"[uncertainty]
+gt_position_sigma_m = {pos_sigma}
+gt_height_sigma_m = 0.0115
+
+[association]
+method = "object_id"
+pairing = "beam_id"
+
+[bins]
+explanatory = ["range", "reflectivity", "height"]
+
+[traces]
+sensor_view = "sv.osi"
+sensor_data = "meas.osi"
+
+"#
+    )
+}
+
 /// The frames of a board campaign: per station and frame, every board placed at its true centre
 /// (board height + `height_err`) and logged at that centre with the board's nominal height and a
 /// jitter of `pos_sigma` per axis; `per_board(rng, board, true centre, logged centre, yaw,
@@ -1517,26 +1540,12 @@ intensity = "range-compensated reflectivity in % (clear air, full overlap assume
 
 [environment]
 fog_visibility_m = {fog}
-
-[uncertainty]
-gt_position_sigma_m = {pos_sigma}
-gt_height_sigma_m = 0.0115
-
-[association]
-method = "object_id"
-pairing = "beam_id"
-
-[bins]
-explanatory = ["range", "reflectivity", "height"]
-
-[traces]
-sensor_view = "sv.osi"
-sensor_data = "meas.osi"
 "#,
         name = case.name(),
         mx = HOST_LEN / 2.0,
         mz = h_s - HOST_H / 2.0,
     );
+    toml.push_str(&board_campaign_tail(pos_sigma));
     finish_board_campaign(dir, toml, &design, case.name(), frame, dropped)
 }
 
@@ -1729,25 +1738,11 @@ radial_velocity = "m/s, positive towards the sensor (OSI)"
 
 [environment]
 fog_visibility_m = "inf"
-
-[uncertainty]
-gt_position_sigma_m = {pos_sigma}
-gt_height_sigma_m = 0.0115
-
-[association]
-method = "object_id"
-pairing = "beam_id"
-
-[bins]
-explanatory = ["range", "reflectivity", "height"]
-
-[traces]
-sensor_view = "sv.osi"
-sensor_data = "meas.osi"
 "#,
         name = case.name(),
         mx = HOST_LEN / 2.0,
         mz = h_s - HOST_H / 2.0,
     );
+    toml.push_str(&board_campaign_tail(pos_sigma));
     finish_board_campaign(dir, toml, &design, case.name(), frame, dropped)
 }
