@@ -66,15 +66,37 @@ impl Outcome {
     }
 }
 
-fn run(w: &Written, out: &std::path::Path) -> Summary {
-    let args = ConsistencyArgs {
+/// Where a run writes: `$OSIRIS_INDEPENDENT_KEEP/<name>` when that is set (the campaigns and
+/// reports are kept there), else the temporary folder `tmp`.
+fn work_dir(tmp: &tempfile::TempDir, name: &str) -> std::path::PathBuf {
+    match std::env::var_os("OSIRIS_INDEPENDENT_KEEP") {
+        Some(k) => std::path::PathBuf::from(k).join(name),
+        None => tmp.path().to_path_buf(),
+    }
+}
+
+/// The workflow's arguments for `w`'s campaign writing into `out`: no model, no switches, no
+/// history (callers fill in what they need).
+fn args_for(w: &Written, out: std::path::PathBuf) -> ConsistencyArgs {
+    ConsistencyArgs {
         meta: w.meta.clone(),
-        out: out.to_path_buf(),
-        simulated: Some(w.model_trace.clone()),
+        out,
+        simulated: None,
         model: None,
         enable: vec![],
         disable: vec![],
         history: None,
+    }
+}
+
+fn ids(list: &[&str]) -> Vec<String> {
+    list.iter().map(|s| s.to_string()).collect()
+}
+
+fn run(w: &Written, out: &std::path::Path) -> Summary {
+    let args = ConsistencyArgs {
+        simulated: Some(w.model_trace.clone()),
+        ..args_for(w, out.to_path_buf())
     };
     run_with(&args, None).expect("the workflow runs")
 }
@@ -117,11 +139,7 @@ fn protocol(
     let mut misses = Vec::new();
     for seed in seeds() {
         let tmp = tempfile::tempdir().unwrap();
-        // `OSIRIS_INDEPENDENT_KEEP=<folder>` keeps the campaigns and reports there.
-        let root = match std::env::var_os("OSIRIS_INDEPENDENT_KEEP") {
-            Some(k) => std::path::PathBuf::from(k).join(format!("{sensor}-{case}-{seed}")),
-            None => tmp.path().to_path_buf(),
-        };
+        let root = work_dir(&tmp, &format!("{sensor}-{case}-{seed}"));
         let t0 = std::time::Instant::now();
         let w = generate(seed, &root.join("campaign")).expect("campaign written");
         let summary = run(&w, &root.join("out"));
@@ -359,10 +377,7 @@ fn generator_physics_reference_values() {
 #[test]
 fn closed_loop_ground_multipath_with_the_physical_radar_model() {
     let tmp = tempfile::tempdir().unwrap();
-    let root = match std::env::var_os("OSIRIS_INDEPENDENT_KEEP") {
-        Some(k) => std::path::PathBuf::from(k).join("closed-loop-ground-multipath"),
-        None => tmp.path().to_path_buf(),
-    };
+    let root = work_dir(&tmp, "closed-loop-ground-multipath");
     let (sigma, height_error) = std::env::var("OSIRIS_LOOP_GT")
         .ok()
         .and_then(|s| {
@@ -382,13 +397,10 @@ fn closed_loop_ground_multipath_with_the_physical_radar_model() {
     )
     .unwrap();
     let args = |out: &str, enable: &[&str], disable: &[&str]| ConsistencyArgs {
-        meta: w.meta.clone(),
-        out: root.join(out),
-        simulated: None,
-        model: None,
-        enable: enable.iter().map(|s| s.to_string()).collect(),
-        disable: disable.iter().map(|s| s.to_string()).collect(),
+        enable: ids(enable),
+        disable: ids(disable),
         history: Some(root.join("history")),
+        ..args_for(&w, root.join(out))
     };
     let before = run_with(&args("without", &[], &["radar.ground_multipath"]), None).unwrap();
     let o = Outcome::from(&before);
@@ -433,10 +445,7 @@ fn closed_loop_ground_multipath_with_the_physical_radar_model() {
 #[test]
 fn closed_loop_yaw_misalignment_with_the_physical_radar_model() {
     let tmp = tempfile::tempdir().unwrap();
-    let root = match std::env::var_os("OSIRIS_INDEPENDENT_KEEP") {
-        Some(k) => std::path::PathBuf::from(k).join("closed-loop-yaw"),
-        None => tmp.path().to_path_buf(),
-    };
+    let root = work_dir(&tmp, "closed-loop-yaw");
     let w = independent_truth::radar_campaign_surveyed(
         RadarCase::YawMisalignment,
         seeds()[0],
@@ -461,13 +470,10 @@ fn closed_loop_yaw_misalignment_with_the_physical_radar_model() {
     };
     let args =
         |out: &str, model: std::path::PathBuf, enable: &[&str], disable: &[&str]| ConsistencyArgs {
-            meta: w.meta.clone(),
-            out: root.join(out),
-            simulated: None,
             model: Some(model),
-            enable: enable.iter().map(|s| s.to_string()).collect(),
-            disable: disable.iter().map(|s| s.to_string()).collect(),
-            history: None,
+            enable: ids(enable),
+            disable: ids(disable),
+            ..args_for(&w, root.join(out))
         };
     let t0 = std::time::Instant::now();
     let before = run_with(
@@ -552,10 +558,7 @@ fn closed_loop_yaw_misalignment_with_the_physical_radar_model() {
 #[test]
 fn closed_loop_fmcw_speckle_with_the_physical_lidar_model() {
     let tmp = tempfile::tempdir().unwrap();
-    let root = match std::env::var_os("OSIRIS_INDEPENDENT_KEEP") {
-        Some(k) => std::path::PathBuf::from(k).join("closed-loop-fmcw-speckle"),
-        None => tmp.path().to_path_buf(),
-    };
+    let root = work_dir(&tmp, "closed-loop-fmcw-speckle");
     let w = independent_truth::fmcw_lidar_campaign(
         FmcwCase::Speckle,
         seeds()[0],
@@ -577,17 +580,10 @@ fn closed_loop_fmcw_speckle_with_the_physical_lidar_model() {
     )
     .unwrap();
     let args = |out: &str, enable: &[&str], disable: &[&str]| ConsistencyArgs {
-        meta: w.meta.clone(),
-        out: root.join(out),
-        simulated: None,
         model: Some(model.clone()),
-        enable: enable.iter().map(|s| s.to_string()).collect(),
-        disable: disable
-            .iter()
-            .chain(&others)
-            .map(|s| s.to_string())
-            .collect(),
-        history: None,
+        enable: ids(enable),
+        disable: ids(&[disable, &others[..]].concat()),
+        ..args_for(&w, root.join(out))
     };
     let spread_rms = |s: &Summary| s.residual_stats["intensity_sd_db"].rms;
     let t0 = std::time::Instant::now();
