@@ -218,6 +218,14 @@ pub struct DopplerRow {
     pub radial_m_s: f64,
 }
 
+/// Buffers of [`doppler_velocity`], reused from box to box and cycle to cycle.
+#[derive(Debug, Clone, Default)]
+pub struct DopplerScratch {
+    rows: Vec<DopplerRow>,
+    /// |residual| of each row after the first fit.
+    abs: Vec<f64>,
+}
+
 /// The velocity of one rigid object from the Doppler of its points in one cycle (FMCW LiDAR).
 ///
 /// A point at `p` (fixed frame) with range rate `ṙ` (positive receding, relative to the sensor
@@ -236,9 +244,10 @@ pub fn doppler_velocity(
     ego: &EgoState,
     points: impl Iterator<Item = (DVec3, f64)>,
     sigma_floor_m_s: f64,
-    rows: &mut Vec<DopplerRow>,
+    scratch: &mut DopplerScratch,
 ) -> Option<VelocityMeasurement> {
     let s = ego.sensor_pose.position;
+    let DopplerScratch { rows, abs } = scratch;
     rows.clear();
     for (p, rate) in points {
         if !rate.is_finite() {
@@ -281,7 +290,8 @@ pub fn doppler_velocity(
     };
     let res = |v: [f64; 2], r: &DopplerRow| r.radial_m_s - (r.los[0] * v[0] + r.los[1] * v[1]);
     let (v0, _, _) = solve(rows, &|_| true)?;
-    let mut abs: Vec<f64> = rows.iter().map(|r| res(v0, r).abs()).collect();
+    abs.clear();
+    abs.extend(rows.iter().map(|r| res(v0, r).abs()));
     let mid = abs.len() / 2;
     let mad = *abs.select_nth_unstable_by(mid, f64::total_cmp).1;
     let gate = 3.0 * (1.4826 * mad).max(sigma_floor_m_s);
@@ -386,7 +396,7 @@ pub struct LidarRecognition {
     groups: Vec<Group>,
     order: Vec<u32>,
     /// Scratch of [`doppler_velocity`].
-    rates: Vec<DopplerRow>,
+    doppler: DopplerScratch,
 }
 
 impl LidarRecognition {
@@ -416,7 +426,7 @@ impl LidarRecognition {
             ground: None,
             groups: Vec::new(),
             order: Vec::new(),
-            rates: Vec::new(),
+            doppler: DopplerScratch::default(),
         })
     }
 
@@ -579,7 +589,7 @@ impl LidarRecognition {
                         .iter()
                         .map(|&i| (self.fixed[i as usize], self.fixed_rates[i as usize])),
                     cfg.range_rate_std_m_s,
-                    &mut self.rates,
+                    &mut self.doppler,
                 )
             } else {
                 None
@@ -1239,7 +1249,7 @@ mod tests {
                 (p, d.dot(v - ego.sensor_velocity_m_s) + outlier)
             })
             .collect();
-        let mut rows = Vec::new();
+        let mut rows = DopplerScratch::default();
         let m = doppler_velocity(&ego, pts.iter().copied(), 0.05, &mut rows).unwrap();
         assert!((m.value_m_s[0] + 4.0).abs() < 1e-9, "{:?}", m.value_m_s);
         assert!((m.value_m_s[1] - 2.0).abs() < 1e-9, "{:?}", m.value_m_s);
