@@ -306,6 +306,16 @@ fn lidar_detector_saturation() {
     );
 }
 
+/// A LiDAR turned 0.5–1° from its nominal mounting (issue 19): every board's point centroid moves
+/// by the same azimuth over 5–52 m and ±17°, named `lidar.extrinsic_error` with its yaw.
+#[test]
+fn lidar_yaw_misalignment() {
+    lidar(
+        LidarCase::YawMisalignment,
+        Expect::Effect("lidar.extrinsic_error"),
+    );
+}
+
 #[test]
 fn lidar_null() {
     lidar(LidarCase::Null, Expect::Consistent);

@@ -233,6 +233,7 @@ pub fn attribution_quantities(kind: campaign::CampaignSensor) -> &'static [&'sta
         campaign::CampaignSensor::Lidar => &[
             quantity::INTENSITY_DB,
             quantity::RANGE_M,
+            quantity::AZIMUTH_DEG,
             quantity::POINTS_LOG_RATIO,
             quantity::GAP_POINTS,
             quantity::RADIAL_VELOCITY_KMH,

@@ -17,6 +17,7 @@
 //!   are not regressed on noisy abscissae.
 
 use std::collections::{BTreeMap, HashMap};
+use std::f64::consts::PI;
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
@@ -729,6 +730,100 @@ fn fmcw_spreads(
     }
 }
 
+/// A LiDAR target's centroid azimuth needs this many of its points on each side.
+const MIN_CENTROID_POINTS: usize = 3;
+/// Azimuth gate of the centroid association beyond a target's own half-width, deg (the yaw bound
+/// of the `lidar.extrinsic_error` catalogue entry).
+const CENTROID_GATE_DEG: f64 = 5.0;
+
+/// LiDAR [`quantity::AZIMUTH_DEG`] rows per target and frame: the azimuth (sensor frame, deg) of
+/// the centroid direction Σ u_i / |Σ u_i| of the target's points on each side. A sensor turned by
+/// ψ from its nominal mounting reports every point ψ off, so the centroid moves by −ψ while the
+/// per-beam pairing (same beam id, same reported direction) cannot see it (physics.md §7.1).
+///
+/// A turned sensor's points leave the target's box sideways, so the box association would cut
+/// the centroid's shift; here a point belongs to the target when its height and range lie within
+/// the box (inflated by 0.2 m, as [`lidar_target`]) and its azimuth within the box's half-width
+/// plus [`CENTROID_GATE_DEG`]. A target with another one inside that gate (at a range the gate
+/// could confuse) gets no row.
+fn centroid_azimuths(
+    campaign: &Campaign,
+    geom: &FrameGeom,
+    m: &[osi3::LidarDetection],
+    s: &[osi3::LidarDetection],
+    frame: usize,
+    time_s: f64,
+    out: &mut Paired,
+) {
+    // Per target: (azimuth, half-width, range span, height span), the angles in rad.
+    let gates: Vec<(f64, f64, (f64, f64), (f64, f64))> = geom
+        .targets
+        .iter()
+        .map(|t| {
+            let half_diag = 0.5 * t.dims.x.hypot(t.dims.y) + 0.2;
+            let half_w = (half_diag / t.range_m.max(0.1)).min(1.0).asin();
+            let zc = t.pose.position.z;
+            let hz = 0.5 * t.dims.z + 0.2;
+            (
+                t.azimuth_deg.to_radians(),
+                half_w,
+                (t.range_m - half_diag, t.range_m + half_diag),
+                (zc - hz, zc + hz),
+            )
+        })
+        .collect();
+    let gate = CENTROID_GATE_DEG.to_radians();
+    let wrap = |a: f64| (a + 3.0 * PI).rem_euclid(2.0 * PI) - PI;
+    let centroid = |dets: &[osi3::LidarDetection], i: usize| {
+        let (az0, half_w, (r0, r1), (z0, z1)) = gates[i];
+        let (mut sum, mut n) = (DVec3::ZERO, 0usize);
+        for p in dets.iter().filter_map(|d| d.position.as_ref()) {
+            let c = osiris_models::frames::Spherical::from_osi(p).to_cartesian();
+            let (r, z) = (c.length(), geom.sensor.point_to_global(c).z);
+            if r < r0 || r > r1 || z < z0 || z > z1 || r == 0.0 {
+                continue;
+            }
+            if wrap(c.y.atan2(c.x) - az0).abs() <= half_w + gate {
+                sum += c / r;
+                n += 1;
+            }
+        }
+        (n >= MIN_CENTROID_POINTS).then(|| sum.y.atan2(sum.x).to_degrees())
+    };
+    for (i, g) in geom.targets.iter().enumerate() {
+        let (az_i, hw_i, (r0, r1), _) = gates[i];
+        let crowded = gates
+            .iter()
+            .enumerate()
+            .any(|(j, &(az_j, hw_j, (q0, q1), _))| {
+                j != i
+                    && q0 <= r1
+                    && q1 >= r0
+                    && wrap(az_j - az_i).abs() <= hw_i + hw_j + 2.0 * gate
+            });
+        if crowded {
+            continue;
+        }
+        let (Some(am), Some(as_)) = (centroid(m, i), centroid(s, i)) else {
+            continue;
+        };
+        // The residual wraps into (−180°, 180°].
+        let d = (am - as_ + 540.0).rem_euclid(360.0) - 180.0;
+        let mut x = vars(campaign, geom, g);
+        x[super::V_SIM] = as_;
+        out.rows.push(Row {
+            quantity: quantity::AZIMUTH_DEG,
+            frame,
+            time_s,
+            target: g.id,
+            station: station_key(g.id, g.range_m, g.azimuth_deg),
+            meas: as_ + d,
+            sim: as_,
+            x,
+        });
+    }
+}
+
 /// The median gap between distinct sorted angles (rad), in deg; 0 with fewer than two distinct.
 /// Angles closer than 1e-4 rad (0.006°) count as one beam line.
 fn median_spacing_deg(mut a: Vec<f64>) -> f64 {
@@ -943,6 +1038,7 @@ fn lidar_frame(
             });
         }
     }
+    centroid_azimuths(campaign, geom, &m, &s, frame, time_s, out);
     if campaign.sensor.is_fmcw() {
         fmcw_spreads(campaign, geom, (&m, &m_t), (&s, &s_t), frame, time_s, out);
     }

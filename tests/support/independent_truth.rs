@@ -1006,16 +1006,20 @@ pub enum LidarCase {
     /// The receiver's linear range ends at a received power P_sat: the measured echo is
     /// min(P, P_sat) (APD / TIA clipping); the model's receiver is linear.
     Saturation,
+    /// The sensor is turned 0.5–1° (either sign) about its vertical axis from its nominal
+    /// mounting: it fires in its true frame and reports in the nominal one.
+    YawMisalignment,
 }
 
 impl LidarCase {
-    pub const ALL: [LidarCase; 6] = [
+    pub const ALL: [LidarCase; 7] = [
         LidarCase::Overlap,
         LidarCase::Fog,
         LidarCase::VerticalDivergence,
         LidarCase::Null,
         LidarCase::OutOfCatalogue,
         LidarCase::Saturation,
+        LidarCase::YawMisalignment,
     ];
     pub fn name(self) -> &'static str {
         match self {
@@ -1025,6 +1029,7 @@ impl LidarCase {
             LidarCase::Null => "null",
             LidarCase::OutOfCatalogue => "out_of_catalogue",
             LidarCase::Saturation => "saturation",
+            LidarCase::YawMisalignment => "yaw_misalignment",
         }
     }
 }
@@ -1187,6 +1192,30 @@ fn lidar_design(case: LidarCase, rng: &mut Rng) -> LidarDesign {
                     board(202, 0.5, 1.0, 50.0, 1.5),
                 ],
                 stations: triple(&ranges, 1.5),
+                frames_per_station: 3,
+                fog_vis_m: f64::INFINITY,
+            }
+        }
+        LidarCase::YawMisalignment => {
+            // Three boards 25° apart in azimuth at each range (rotated between stations), so that
+            // a turned sensor's points cannot be taken for a neighbour's.
+            let ranges: Vec<f64> = (0..10).map(|k| 5.0 + 5.0 * k as f64).collect();
+            let stations = ranges
+                .iter()
+                .enumerate()
+                .map(|(k, &r)| {
+                    (0..3)
+                        .map(|i| (i, r, 25.0 * (((i + k) % 3) as f64 - 1.0)))
+                        .collect()
+                })
+                .collect();
+            LidarDesign {
+                boards: vec![
+                    board(200, 0.5, 0.5, 10.0, 1.4),
+                    board(201, 0.5, 0.5, 50.0, 1.5),
+                    board(202, 0.5, 0.5, 90.0, 1.6),
+                ],
+                stations,
                 frames_per_station: 3,
                 fog_vis_m: f64::INFINITY,
             }
@@ -1462,6 +1491,19 @@ pub fn lidar_campaign(case: LidarCase, seed: u64, dir: &Path) -> anyhow::Result<
         .iter()
         .map(|_| rng.range(-0.02, 0.02))
         .collect();
+    // The sensor's true yaw from its nominal mounting, rad (positive: turned left).
+    let yaw_err = if case == LidarCase::YawMisalignment {
+        let sign = if rng.uniform() < 0.5 { -1.0 } else { 1.0 };
+        sign * rng.range(0.5, 1.0).to_radians()
+    } else {
+        0.0
+    };
+    // A point of the world in the true sensor frame (about the sensor's vertical axis).
+    let to_true = |c: DVec3| {
+        let (s, co) = (-yaw_err).sin_cos();
+        let d = c - o;
+        o + DVec3::new(co * d.x - s * d.y, s * d.x + co * d.y, d.z)
+    };
 
     let (frame, dropped) = write_board_frames(
         dir,
@@ -1484,7 +1526,9 @@ pub fn lidar_campaign(case: LidarCase, seed: u64, dir: &Path) -> anyhow::Result<
                     ..Default::default()
                 });
             }
-            for ret in trace_board(&truth, o, c_true, yaw, b.width, b.height, b.refl_true) {
+            // The measured sensor fires in its true frame and reports in the nominal one.
+            let (c_m, yaw_m) = (to_true(c_true), yaw - yaw_err);
+            for ret in trace_board(&truth, o, c_m, yaw_m, b.width, b.height, b.refl_true) {
                 // Speckle / shot noise: 5 % of the power, plus 0.3 % reflectivity-equivalent
                 // additive noise at the reference range.
                 let mut p = ret.power * (1.0 + 0.05 * rng.normal())
