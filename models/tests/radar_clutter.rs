@@ -124,7 +124,10 @@ fn road_clutter_power_follows_constant_gamma_vs_grazing_angle() {
         let (sum, n) = sums[b];
         assert!(n > 500, "band {lo}–{hi} m: only {n} cells");
         let ratio_db = db(sum / n as f64);
-        let psi = ((H_M / lo).asin().to_degrees(), (H_M / hi).asin().to_degrees());
+        let psi = (
+            (H_M / lo).asin().to_degrees(),
+            (H_M / hi).asin().to_degrees(),
+        );
         eprintln!(
             "band {lo}–{hi} m (ψ {:.1}°–{:.1}°): {n} cells, mean P/P_closed-form {ratio_db:+.2} dB",
             psi.0, psi.1
@@ -178,7 +181,9 @@ fn an_object_shadows_the_road_behind_it() {
     };
     let open = behind(&paths(&mut sensor(1, &[]), &view(vec![])));
     let shadowed = behind(&paths(&mut sensor(1, &[]), &view(vec![wall])));
-    eprintln!("clutter cells behind the wall's position: {open} open road, {shadowed} with the wall");
+    eprintln!(
+        "clutter cells behind the wall's position: {open} open road, {shadowed} with the wall"
+    );
     assert!(open >= 40, "open road: {open} cells");
     assert_eq!(shadowed, 0, "cells behind the wall still return");
 }
@@ -197,8 +202,7 @@ fn car_detections(r: f64, aspect_deg: f64, diffuse: bool) -> usize {
     c.fov_vertical_rad = 30f64.to_radians();
     c.seed = Some(3);
     c.effects.insert("radar.road_clutter".into(), false);
-    c.effects
-        .insert("radar.diffuse_scattering".into(), diffuse);
+    c.effects.insert("radar.diffuse_scattering".into(), diffuse);
     c.radar = Some(RadarPreset::Imaging.config());
     let mut s = RadarSensor::new(c).expect("radar");
     // Broadside: the car's side faces the radar (yaw 90°); `aspect_deg` turns it further.

@@ -1174,7 +1174,10 @@ impl Propagator {
         let heading = fwd.y.atan2(fwd.x);
         let r_max = self.cfg.clutter_max_range_m.min(ctx.max_range_m);
         let fov_h = fov_h.min(2.0 * PI);
-        let (mut dr, mut dphi) = (self.cfg.clutter_cell_m, self.cfg.clutter_cell_deg.to_radians());
+        let (mut dr, mut dphi) = (
+            self.cfg.clutter_cell_m,
+            self.cfg.clutter_cell_deg.to_radians(),
+        );
         let count = |dr: f64, dphi: f64| ((r_max / dr).ceil(), (fov_h / dphi).ceil());
         let (n_r, n_phi) = count(dr, dphi);
         let cap = self.cfg.clutter_max_cells as f64;
@@ -1242,8 +1245,8 @@ impl Propagator {
         }
         let sigma = gamma_area * sin_psi;
         let (az, el) = az_el(&ctx.to_sensor, d);
-        let gains =
-            10f64.powf((self.antennas.tx_gain_dbi(az, el) + self.antennas.rx_gain_dbi(az, el)) / 20.0);
+        let gains = 10f64
+            .powf((self.antennas.tx_gain_dbi(az, el) + self.antennas.rx_gain_dbi(az, el)) / 20.0);
         let spread = if self.sw.spreading {
             range * range
         } else {
