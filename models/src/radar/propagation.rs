@@ -1254,7 +1254,7 @@ impl Propagator {
         };
         let atm = (-ctx.extinction_per_m * range).exp();
         let mag = self.amp_const * gains * sigma.sqrt() * atm / spread;
-        let (x, y) = gaussian_pair(ctx.seed ^ splitmix64(index ^ (0x5EED_C1u64 << 32)));
+        let (x, y) = gaussian_pair(ctx.seed ^ splitmix64(index ^ (0x005E_EDC1_u64 << 32)));
         Some(PathReturn {
             range_m: range,
             range_rate_m_s: -ctx.sensor_velocity.dot(d),
