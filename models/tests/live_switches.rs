@@ -27,7 +27,7 @@ use osiris_models::registry::catalogue;
 use osiris_models::{
     ModelMode, Mounting, SensorConfig, SensorKind, SensorModel, StepInput, StepOutput,
 };
-use osiris_proto::{id, osi3, timestamp_from_seconds};
+use osiris_proto::{INVALID_ID, id, osi3, timestamp_from_seconds};
 
 /// The reference scene (and sensor) of an effect.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -81,6 +81,8 @@ const CASES: &[(&str, Bench)] = &[
     ("radar.rain_attenuation", Bench::Radar),
     ("radar.atmospheric_absorption", Bench::Radar),
     ("radar.micro_doppler", Bench::Radar),
+    ("radar.road_clutter", Bench::Radar),
+    ("radar.diffuse_scattering", Bench::Radar),
     ("radar.antenna_pattern", Bench::Radar),
     ("radar.receiver_compression", Bench::Radar),
     ("radar.phase_noise", Bench::Radar),
@@ -866,6 +868,25 @@ fn radar_closed_form(name: &str, base: &RadarRun, run: &RadarRun) -> Result<(), 
         "space.mmwave_roughness" => {
             if power_of(run, R_CONCRETE) <= power_of(base, R_CONCRETE) {
                 return Err("the concrete board does not gain without roughness".into());
+            }
+            Ok(())
+        }
+        // Off: the road returns nothing of its own (every static-world path is road clutter here).
+        "radar.road_clutter" => {
+            let road = |r: &RadarRun| r.paths.iter().filter(|p| p.3 == INVALID_ID).count();
+            if road(base) == 0 || road(run) != 0 {
+                return Err(format!(
+                    "{} road paths with, {} without road clutter",
+                    road(base),
+                    road(run)
+                ));
+            }
+            Ok(())
+        }
+        // Off: the car (rough paint) keeps only its coherent return: its total power falls.
+        "radar.diffuse_scattering" => {
+            if power_of(run, R_CAR) >= power_of(base, R_CAR) {
+                return Err("the car does not lose power without diffuse scattering".into());
             }
             Ok(())
         }

@@ -53,9 +53,11 @@ fn view(objects: Vec<osi3::MovingObject>) -> osi3::SensorView {
     }
 }
 
-/// Sensor at height `h` looking along +x; `effects` switched as given.
+/// Sensor at height `h` looking along +x; `effects` switched as given. Road clutter is off (these
+/// tests look at the paths of their targets; it has its own tests in `radar_clutter.rs`).
 fn config(h: f64, effects: &[(&str, bool)]) -> SensorConfig {
     let mut c = SensorConfig::default_for(SensorKind::Radar);
+    c.effects.insert("radar.road_clutter".into(), false);
     c.mode = ModelMode::Physical;
     c.mounting = Mounting {
         position_m: [0.0, 0.0, h],

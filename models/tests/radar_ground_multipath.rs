@@ -95,8 +95,8 @@ fn view(r: f64, stationary: bool) -> osi3::SensorView {
     }
 }
 
-/// Physical radar at `SENSOR_Z` looking along +x; default effects except gaseous absorption (not
-/// part of the two-ray model) and `radar.ground_multipath` as given.
+/// Physical radar at `SENSOR_Z` looking along +x; default effects except gaseous absorption and
+/// road clutter (not part of the two-ray model) and `radar.ground_multipath` as given.
 fn sensor(ground: bool) -> RadarSensor {
     let mut c = SensorConfig::default_for(SensorKind::Radar);
     c.mode = ModelMode::Physical;
@@ -110,6 +110,8 @@ fn sensor(ground: bool) -> RadarSensor {
     c.effects
         .insert("radar.atmospheric_absorption".into(), false);
     c.effects.insert("radar.ground_multipath".into(), ground);
+    // The road's own diffuse return is not part of the two-ray model.
+    c.effects.insert("radar.road_clutter".into(), false);
     RadarSensor::new(c).expect("radar")
 }
 

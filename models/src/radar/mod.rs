@@ -66,6 +66,10 @@ pub struct PathReturn {
     pub object_id: u64,
 }
 
+/// Distinguishes the propagation's random stream (diffuse amplitudes, road clutter) from the
+/// baseband's noise, both derived from the cycle seed.
+const PROPAGATION_STREAM: u64 = 0x7072_6F70_6167_6174;
+
 /// Radar-specific configuration (`"radar"` key of the sensor configuration JSON).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -181,15 +185,17 @@ impl Physics for RadarPhysics {
 
     fn perceive(&mut self, cycle: &Cycle<'_>, frame: &WorldFrame<'_>) -> Result<(), ModelError> {
         let cfg = cycle.config;
-        // Propagation paths → baseband chain → detections.
+        let seed = crate::rng::splitmix64(cycle.seed ^ crate::rng::splitmix64(cycle.index));
+        // Propagation paths → baseband chain → detections (the propagation's random draws from
+        // a stream of their own).
         self.propagator.compute(
             frame,
             (cfg.fov_horizontal_rad, cfg.fov_vertical_rad),
             cfg.range_m,
+            crate::rng::fmix64(seed ^ PROPAGATION_STREAM),
             &mut self.paths,
         );
         self.chain_out.clear();
-        let seed = crate::rng::splitmix64(cycle.seed ^ crate::rng::splitmix64(cycle.index));
         self.chain
             .set_field_of_view(cfg.fov_horizontal_rad, cfg.fov_vertical_rad);
         self.chain.run(&self.paths, seed, &mut self.chain_out);
@@ -275,10 +281,12 @@ impl RadarSensor {
     /// Only the propagation of one step: the paths of `view` (no baseband, no outputs).
     pub fn propagate(&mut self, input: &StepInput<'_>) -> Result<&[PathReturn], ModelError> {
         let (frame, config, physics) = self.world_frame(input)?;
+        let seed = crate::rng::splitmix64(config.seed.unwrap_or(0));
         physics.propagator.compute(
             &frame,
             (config.fov_horizontal_rad, config.fov_vertical_rad),
             config.range_m,
+            crate::rng::fmix64(seed ^ PROPAGATION_STREAM),
             &mut physics.paths,
         );
         Ok(&physics.paths)

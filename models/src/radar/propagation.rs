@@ -43,12 +43,20 @@
 //!   phase beyond `4πR/λ` kept in the amplitude.
 //! * **Ground multipath** (image method, physics.md §1.3): every scattering centre above the road
 //!   gets the image paths DG, GD (one leg via the road) and GG with the road's Fresnel coefficient
-//!   at the grazing angle; tubes that hit the road are not traced further (the road's own
-//!   backscatter at grazing incidence is not modelled), so the road enters only through the images.
+//!   at the grazing angle; tubes that hit the road are not traced further: the road's specular
+//!   part enters through the images, its own diffuse backscatter as road clutter (below).
 //!   The image is that of the centre's phase centre: for a mostly multiple-bounce centre of an
 //!   object whose asset has a fixed one, that point (a trihedral's apex,
 //!   [`crate::environment::assets::phase_centre`]); else the point at the centre's path range along
 //!   its hit-point centroid (the centroid itself for single reflections).
+//! * **Diffuse scattering** (`radar.diffuse_scattering`, physics.md §1.9): on a rough surface
+//!   (material `roughness_m` σ_h) the Ament factor takes (1 − χ²) of the coherent power; that part
+//!   is scattered by Lambert's law, σ⁰ = 4ρ cos²θ with ρ = (1 − χ²)|Γ|². Every tube's first hit on
+//!   its target adds σ_t = σ⁰·A_t/cos θ with a complex Gaussian amplitude (seeded per cycle and
+//!   tube) to its scattering centre.
+//! * **Road clutter** (`radar.road_clutter`, physics.md §1.9): a polar grid of road cells in the
+//!   field of view, one ray each (shadowed cells return nothing), each one path of
+//!   σ = γ sin ψ · A_cell (constant-γ model), Rayleigh amplitude, stationary Doppler.
 //!
 //! Cost: one `closest_hit` per tube and interaction (≤ `max_bounces` + crossings), tubes in
 //! parallel (rayon, fixed output slots per tube, so the sums are deterministic), contributions
@@ -69,6 +77,7 @@ use crate::environment::material::{MaterialEffects, Polarisation as PlanePol};
 use crate::environment::scene::{Scene, StaticElement};
 use crate::environment::weather::{self, FOG_EXTINCTION as ENV_FOG, Weather};
 use crate::error::ModelError;
+use crate::rng::splitmix64;
 use crate::space::{Hit, Ray, Space};
 use crate::world::WorldFrame;
 
@@ -154,6 +163,36 @@ pub const MICRO_DOPPLER: EffectInfo = EffectInfo {
     requires: None,
 };
 
+/// `radar.road_clutter`: diffuse backscatter of the road surface (stationary clutter).
+pub const ROAD_CLUTTER: EffectInfo = EffectInfo {
+    name: "radar.road_clutter",
+    default_on: true,
+    summary: "diffuse backscatter of the road: a polar grid of road cells in the field of view (one \
+              `closest_hit` each: cells behind an object are shadowed) returns σ = σ⁰(ψ)·A_cell with the \
+              constant-γ model σ⁰ = γ·sin ψ (ψ the grazing angle of the cell's ray on the road), a \
+              Rayleigh amplitude (complex Gaussian, seeded per cycle and cell) and the Doppler of a \
+              stationary point; off: the road returns only through the image paths",
+    source: "constant-γ clutter model: Barton, Radar Equations for Modern Radar (2013) ch. 9; Nathanson, \
+             Radar Design Principles 2nd ed. (1991) ch. 7; γ of asphalt at 77 GHz: estimate from the \
+             near-grazing road levels of Li & Sarabandi, IEEE TAP 47(5):851, 1999 (physics.md §1.9)",
+    requires: None,
+};
+
+/// `radar.diffuse_scattering`: the incoherent rough-surface term of object surfaces.
+pub const DIFFUSE_SCATTERING: EffectInfo = EffectInfo {
+    name: "radar.diffuse_scattering",
+    default_on: true,
+    summary: "incoherent scattering of rough object surfaces: the power the Ament factor takes from the \
+              coherent reflection, ρ(θ) = (1 − e^{−4(kσ_h cos θ)²})·|Γ(θ)|², is scattered by Lambert's law, \
+              σ⁰ = 4ρ cos²θ; every tube's first hit adds √(σ⁰·A_t/cos θ) with a complex Gaussian (Rayleigh) \
+              amplitude to its scattering centre; also needs `space.mmwave_roughness`; off: coherent \
+              (PO) scattering only",
+    source: "Beckmann & Spizzichino, The Scattering of Electromagnetic Waves from Rough Surfaces (1963); \
+             Ulaby, Moore & Fung, Microwave Remote Sensing vol. II (1982) ch. 12 (coherent / incoherent \
+             split, Lambert's law) (physics.md §1.9)",
+    requires: Some("space.mmwave_roughness"),
+};
+
 /// Effects declared by this module.
 pub const EFFECTS: &[EffectInfo] = &[
     TWO_WAY_SPREADING,
@@ -163,6 +202,8 @@ pub const EFFECTS: &[EffectInfo] = &[
     RAIN_ATTENUATION,
     ATMOSPHERIC_ABSORPTION,
     MICRO_DOPPLER,
+    ROAD_CLUTTER,
+    DIFFUSE_SCATTERING,
 ];
 
 /// Ray-tube launching and grouping parameters (`radar.propagation`).
@@ -188,6 +229,18 @@ pub struct PropagationConfig {
     pub point_rcs_dbsm: f64,
     /// R₀ of `radar.two_way_spreading` off, m.
     pub reference_range_m: f64,
+    /// γ of the road's constant-γ clutter model σ⁰ = γ·sin ψ (`radar.road_clutter`), dB (−20 dB:
+    /// estimate for asphalt at 77 GHz, physics.md §1.9).
+    pub clutter_gamma_db: f64,
+    /// Ground-range size of a road clutter cell, m.
+    pub clutter_cell_m: f64,
+    /// Azimuth size of a road clutter cell, deg.
+    pub clutter_cell_deg: f64,
+    /// Road clutter cells extend to this ground range (or the sensor range if smaller), m.
+    pub clutter_max_range_m: f64,
+    /// At most this many clutter cells per frame (both cell sizes grow uniformly beyond it): each
+    /// cell is one path for the baseband.
+    pub clutter_max_cells: usize,
 }
 
 impl Default for PropagationConfig {
@@ -202,6 +255,11 @@ impl Default for PropagationConfig {
             min_power_dbm: -180.0,
             point_rcs_dbsm: 10.0,
             reference_range_m: 10.0,
+            clutter_gamma_db: -20.0,
+            clutter_cell_m: 0.5,
+            clutter_cell_deg: 2.0,
+            clutter_max_range_m: 60.0,
+            clutter_max_cells: 1500,
         }
     }
 }
@@ -222,7 +280,11 @@ impl PropagationConfig {
         pos("min_tubes_across", self.min_tubes_across)?;
         pos("cluster_size_m", self.cluster_size_m)?;
         pos("reference_range_m", self.reference_range_m)?;
+        pos("clutter_cell_m", self.clutter_cell_m)?;
+        pos("clutter_cell_deg", self.clutter_cell_deg)?;
+        pos("clutter_max_range_m", self.clutter_max_range_m)?;
         for (k, v) in [
+            ("clutter_max_cells", self.clutter_max_cells),
             ("max_tubes", self.max_tubes),
             ("max_paths", self.max_paths),
             ("max_bounces", self.max_bounces as usize),
@@ -242,6 +304,7 @@ impl PropagationConfig {
         for (k, v) in [
             ("min_power_dbm", self.min_power_dbm),
             ("point_rcs_dbsm", self.point_rcs_dbsm),
+            ("clutter_gamma_db", self.clutter_gamma_db),
         ] {
             if !v.is_finite() {
                 return Err(ModelError::Config(format!(
@@ -264,6 +327,8 @@ struct Switches {
     gas: bool,
     fog: bool,
     micro_doppler: bool,
+    road_clutter: bool,
+    diffuse: bool,
     material: MaterialEffects,
 }
 
@@ -486,6 +551,10 @@ const COEFF_SAMPLES: usize = 361;
 struct Coefficients {
     slab: bool,
     table: Vec<[Complex64; 4]>,
+    /// Diffuse albedo ρ(θ) = (1 − χ²)·½(|Γ_TE|² + |Γ_TM|²) of `radar.diffuse_scattering`: the power
+    /// fraction the Ament factor χ takes from the smooth-surface reflection (0 with
+    /// `space.mmwave_roughness` off).
+    albedo: Vec<f64>,
 }
 
 impl Coefficients {
@@ -508,10 +577,39 @@ impl Coefficients {
                 ]
             })
             .collect();
+        let smooth = MaterialEffects {
+            mmwave_roughness: false,
+            ..*fx
+        };
+        let albedo = (0..COEFF_SAMPLES)
+            .map(|i| {
+                if !fx.mmwave_roughness {
+                    return 0.0;
+                }
+                let th = (i as f64 / (COEFF_SAMPLES - 1) as f64) * 0.5 * PI;
+                let chi = mat.ament_factor(freq_hz, th);
+                let r = 0.5
+                    * (mat
+                        .reflection_mmwave(freq_hz, th, PlanePol::Te, &smooth)
+                        .norm_sqr()
+                        + mat
+                            .reflection_mmwave(freq_hz, th, PlanePol::Tm, &smooth)
+                            .norm_sqr());
+                (1.0 - chi * chi) * r
+            })
+            .collect();
         Coefficients {
             slab: mat.mmwave.is_slab(),
             table,
+            albedo,
         }
+    }
+
+    fn albedo_at(&self, incidence_rad: f64) -> f64 {
+        let x = (incidence_rad / (0.5 * PI)).clamp(0.0, 1.0) * (COEFF_SAMPLES - 1) as f64;
+        let i = (x.floor() as usize).min(COEFF_SAMPLES - 2);
+        let f = x - i as f64;
+        self.albedo[i] * (1.0 - f) + self.albedo[i + 1] * f
     }
 
     fn at(&self, incidence_rad: f64) -> [Complex64; 4] {
@@ -535,6 +633,21 @@ struct FrameCtx<'a> {
     /// Power extinction, Np/m (power) over the total path.
     extinction_per_m: f64,
     max_range_m: f64,
+    /// Seed of this cycle's random draws (diffuse and clutter amplitudes).
+    seed: u64,
+}
+
+/// A pair of independent standard normal deviates from the hash `h` (Box–Muller on two 53-bit
+/// uniforms of SplitMix64): the random draws of one diffuse contribution or clutter cell, the same
+/// for the same seed whatever the thread count.
+fn gaussian_pair(h: u64) -> (f64, f64) {
+    let a = splitmix64(h);
+    let b = splitmix64(a ^ 0xD1B5_4A32_D192_ED03);
+    let u1 = ((a >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
+    let u2 = (b >> 11) as f64 / (1u64 << 53) as f64;
+    let r = (-2.0 * u1.ln()).sqrt();
+    let (s, c) = (2.0 * PI * u2).sin_cos();
+    (r * c, r * s)
 }
 
 /// The radar propagation of one model instance (planned once, buffers reused).
@@ -565,6 +678,8 @@ pub struct Propagator {
     targets: Vec<(Owner, DVec3, DVec3)>,
     windows: Vec<(Owner, [f64; 5])>,
     counts: Vec<f64>,
+    /// Road clutter cells of the frame (fixed slots, reused).
+    clutter: Vec<Option<PathReturn>>,
     /// Tubes launched in the last frame.
     pub last_tube_count: usize,
 }
@@ -654,6 +769,8 @@ impl Propagator {
                 gas: effects.is_on(&ATMOSPHERIC_ABSORPTION),
                 fog: effects.is_on(&ENV_FOG),
                 micro_doppler: effects.is_on(&MICRO_DOPPLER),
+                road_clutter: effects.is_on(&ROAD_CLUTTER),
+                diffuse: effects.is_on(&DIFFUSE_SCATTERING),
                 material: MaterialEffects::from_effects(effects),
             },
             antennas: Antennas::new(front_end, effects),
@@ -674,6 +791,7 @@ impl Propagator {
             targets: Vec::new(),
             windows: Vec::new(),
             counts: Vec::new(),
+            clutter: Vec::new(),
             last_tube_count: 0,
         })
     }
@@ -969,12 +1087,14 @@ impl Propagator {
         self.windows = windows;
     }
 
-    /// The paths of one frame (appended to `out` after clearing it).
+    /// The paths of one frame (appended to `out` after clearing it); `seed` seeds the frame's random
+    /// draws (diffuse amplitudes, road clutter).
     pub fn compute(
         &mut self,
         frame: &WorldFrame<'_>,
         fov: (f64, f64),
         max_range_m: f64,
+        seed: u64,
         out: &mut Vec<PathReturn>,
     ) {
         out.clear();
@@ -992,8 +1112,10 @@ impl Propagator {
             to_sensor: rot.transpose(),
             extinction_per_m: self.extinction_per_m(&frame.weather),
             max_range_m,
+            seed,
         };
-        let nb = self.cfg.max_bounces as usize;
+        // Contribution slots per tube: one per bounce, one more for the diffuse term.
+        let nb = self.cfg.max_bounces as usize + usize::from(self.sw.diffuse);
         self.contributions.clear();
         self.contributions
             .resize(self.tubes.len() * nb, Contribution::EMPTY);
@@ -1017,8 +1139,137 @@ impl Propagator {
             .par_sort_unstable_by(|a, b| a.key.cmp(&b.key).then(a.order.cmp(&b.order)));
         self.group(&ctx);
         self.emit(&ctx, out);
+        if self.sw.road_clutter {
+            self.road_clutter(&ctx, fov.0, out);
+        }
+    }
+
+    /// `radar.road_clutter` (physics.md §1.9): a polar grid of road cells around the sensor's
+    /// horizontal heading (`fov_h` wide, ground ranges up to `clutter_max_range_m`, at most
+    /// `clutter_max_cells`). Each cell's centre is aimed at on the horizontal plane through the road
+    /// point below the sensor; the ray's first hit must be the road (else the cell is shadowed or
+    /// off the road). The cell returns one path of σ = γ·sin ψ·A_cell (ψ: grazing angle of the ray
+    /// on the road's normal, A_cell = r·Δr·Δφ) with a complex Gaussian amplitude and the range rate
+    /// of a stationary point. One `closest_hit` per cell, cells in parallel into fixed slots.
+    fn road_clutter(&mut self, ctx: &FrameCtx<'_>, fov_h: f64, out: &mut Vec<PathReturn>) {
+        // The road below the sensor.
+        let mut probe = Ray::new(ctx.origin, -DVec3::Z).with_t_max(50.0);
+        let mut below = None;
+        for _ in 0..8 {
+            let Some(h) = closest_hit_sealed(ctx.space, &probe) else {
+                break;
+            };
+            if self.owner_of(ctx.scene, &h) == Owner::Road {
+                below = Some(h);
+                break;
+            }
+            probe = probe.with_t_min(h.distance_m + 1e-4);
+        }
+        let Some(below) = below else { return };
+        let height = ctx.origin.z - below.point.z;
+        if height <= 1e-3 {
+            return;
+        }
+        let fwd = ctx.sensor_rotation.x_axis;
+        let heading = fwd.y.atan2(fwd.x);
+        let r_max = self.cfg.clutter_max_range_m.min(ctx.max_range_m);
+        let fov_h = fov_h.min(2.0 * PI);
+        let (mut dr, mut dphi) = (
+            self.cfg.clutter_cell_m,
+            self.cfg.clutter_cell_deg.to_radians(),
+        );
+        let count = |dr: f64, dphi: f64| ((r_max / dr).ceil(), (fov_h / dphi).ceil());
+        let (n_r, n_phi) = count(dr, dphi);
+        let cap = self.cfg.clutter_max_cells as f64;
+        if n_r * n_phi > cap {
+            let scale = (n_r * n_phi / cap).sqrt();
+            dr *= scale;
+            dphi *= scale;
+        }
+        let (n_r, n_phi) = count(dr, dphi);
+        let (n_r, n_phi) = (n_r.max(1.0) as usize, n_phi.max(1.0) as usize);
+        let dr = r_max / n_r as f64;
+        let dphi = fov_h / n_phi as f64;
+        let gamma = 10f64.powf(self.cfg.clutter_gamma_db / 10.0);
+        let mut cells = std::mem::take(&mut self.clutter);
+        cells.clear();
+        cells.resize(n_r * n_phi, None);
+        {
+            let this = &*self;
+            cells
+                .par_chunks_mut(CELLS_PER_TASK)
+                .enumerate()
+                .for_each(|(c, chunk)| {
+                    for (k, slot) in chunk.iter_mut().enumerate() {
+                        let i = c * CELLS_PER_TASK + k;
+                        let (ir, ip) = (i / n_phi, i % n_phi);
+                        let r = (ir as f64 + 0.5) * dr;
+                        let phi = heading - 0.5 * fov_h + (ip as f64 + 0.5) * dphi;
+                        let area = r * dr * dphi;
+                        *slot = this.clutter_cell(ctx, r, phi, height, area * gamma, i as u64);
+                    }
+                });
+        }
+        out.extend(cells.iter().flatten());
+        self.clutter = cells;
+    }
+
+    /// One road clutter cell at ground range `r`, azimuth `phi` (scene frame), `height` below the
+    /// sensor; `gamma_area` = γ·A_cell, m².
+    fn clutter_cell(
+        &self,
+        ctx: &FrameCtx<'_>,
+        r: f64,
+        phi: f64,
+        height: f64,
+        gamma_area: f64,
+        index: u64,
+    ) -> Option<PathReturn> {
+        let aim = DVec3::new(r * phi.cos(), r * phi.sin(), -height);
+        let dist = aim.length();
+        let d = aim / dist;
+        let hit = closest_hit_sealed(
+            ctx.space,
+            &Ray::new(ctx.origin, d).with_t_max(2.0 * dist + 1.0),
+        )?;
+        if self.owner_of(ctx.scene, &hit) != Owner::Road {
+            return None;
+        }
+        let range = hit.distance_m;
+        if range > ctx.max_range_m {
+            return None;
+        }
+        let sin_psi = -d.dot(hit.facing_normal());
+        if sin_psi <= 0.0 {
+            return None;
+        }
+        let sigma = gamma_area * sin_psi;
+        let (az, el) = az_el(&ctx.to_sensor, d);
+        let gains = 10f64
+            .powf((self.antennas.tx_gain_dbi(az, el) + self.antennas.rx_gain_dbi(az, el)) / 20.0);
+        let spread = if self.sw.spreading {
+            range * range
+        } else {
+            self.cfg.reference_range_m.powi(2)
+        };
+        let atm = (-ctx.extinction_per_m * range).exp();
+        let mag = self.amp_const * gains * sigma.sqrt() * atm / spread;
+        let (x, y) = gaussian_pair(ctx.seed ^ splitmix64(index ^ (0x005E_EDC1_u64 << 32)));
+        Some(PathReturn {
+            range_m: range,
+            range_rate_m_s: -ctx.sensor_velocity.dot(d),
+            tx_azimuth_rad: az,
+            tx_elevation_rad: el,
+            rx_azimuth_rad: az,
+            rx_elevation_rad: el,
+            amplitude: Complex64::new(x, y) * (mag * std::f64::consts::FRAC_1_SQRT_2),
+            object_id: osiris_proto::INVALID_ID,
+        })
     }
 }
+
+/// Road clutter cells per rayon task.
+const CELLS_PER_TASK: usize = 64;
 
 /// `closest_hit`, retried once with the ray moved 1 mm sideways when it hits nothing: a ray that
 /// runs (within rounding) along a shared triangle edge, e.g. straight down onto the seam of two
@@ -1363,6 +1614,37 @@ impl Propagator {
                         order: order + written as u64,
                     };
                     written += 1;
+                }
+                // `radar.diffuse_scattering`: the incoherent term of the radar's direct illumination,
+                // σ_t = σ⁰(θ)·A_t/cos θ = 4ρ(θ)·cos θ·A_t (Lambert's law, physics.md §1.9).
+                if self.sw.diffuse
+                    && bounces == 0
+                    && on_target
+                    && crossing.is_none()
+                    && written < slot.len()
+                {
+                    let sigma_t = 4.0 * coeff.albedo_at(theta) * cos_i * side_u * side_v;
+                    if sigma_t > 0.0 {
+                        let mag = self.amp_const * gains * sigma_t.sqrt() * atm / spread;
+                        let (x, y) = gaussian_pair(ctx.seed ^ splitmix64(order + written as u64));
+                        let amp = back
+                            * Complex64::new(x, y)
+                            * (mag * std::f64::consts::FRAC_1_SQRT_2)
+                            * Complex64::from_polar(1.0, k * total);
+                        slot[written] = Contribution {
+                            key: self.key(owner.object_id(), 1, hit.point),
+                            amplitude: amp,
+                            point: hit.point,
+                            length_m: total,
+                            length_rate_m_s: rate + (ctx.sensor_velocity - vel).dot(o),
+                            departure: tube.direction,
+                            velocity: vel,
+                            object_id: owner.object_id(),
+                            bounces: 1,
+                            order: order + written as u64,
+                        };
+                        written += 1;
+                    }
                 }
             }
             if let Some((tte, ttm)) = crossing {

@@ -25,12 +25,14 @@ pub fn db(x: f64) -> f64 {
     10.0 * x.log10()
 }
 
-/// Total received power of the coherent sum of radar paths (the baseband phase e^{j2kR}
-/// included), W.
+/// Total received power of the coherent sum of the radar paths of objects (the baseband phase
+/// e^{j2kR} included), W. Paths of no object (`INVALID_ID`: the road clutter of
+/// `radar.road_clutter`) are left out: the tests that use this measure targets.
 pub fn coherent_power_w(paths: &[PathReturn], lambda: f64) -> f64 {
     let k = 2.0 * PI / lambda;
     paths
         .iter()
+        .filter(|p| p.object_id != osiris_proto::INVALID_ID)
         .map(|p| p.amplitude * Complex64::from_polar(1.0, 2.0 * k * p.range_m))
         .sum::<Complex64>()
         .norm_sqr()
