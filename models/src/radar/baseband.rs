@@ -173,6 +173,8 @@ pub(super) struct PathPre {
 
 /// Cells per rayon task.
 const CELLS_PER_TASK: usize = 32;
+/// Range bins per task of the Doppler stage (8 complex f32 = one 64-byte cache line).
+const DOPPLER_BINS_PER_TASK: usize = 8;
 
 /// The baseband synthesis and signal processing, planned once (FFT plans, buffers).
 pub struct RadarChain {
@@ -1037,9 +1039,11 @@ impl RadarChain {
                             *g += *t;
                         }
                         grid_fft.process_with_scratch(main, scratch);
-                        for n in 0..ns {
-                            let kk = (n + m_grid - ns / 2) % m_grid;
-                            let v = main[kk] * corr[n];
+                        // Sample n is grid point (n + m_grid − ns/2) mod m_grid: the last ns/2
+                        // grid points, then the first ns/2 (no integer division per sample).
+                        let (tail, head) = (&main[m_grid - ns / 2..], &main[..ns - ns / 2]);
+                        for (n, v) in tail.iter().chain(head).enumerate() {
+                            let v = *v * corr[n];
                             re[n] = v.re;
                             im[n] = v.im;
                         }
@@ -1118,24 +1122,34 @@ impl RadarChain {
         let win = &self.doppler_win[..];
         let fft = self.fft_doppler.clone();
         let scratch_len = fft.get_inplace_scratch_len();
+        // Blocks of DOPPLER_BINS_PER_TASK consecutive range bins: the gather from the cube (range
+        // bins contiguous per cell) then reads each cache line once instead of once per bin.
+        let per = nk * nc;
         self.dop
-            .par_chunks_mut(nk * nc)
-            .zip(self.power.par_chunks_mut(nc))
+            .par_chunks_mut(per * DOPPLER_BINS_PER_TASK)
+            .zip(self.power.par_chunks_mut(nc * DOPPLER_BINS_PER_TASK))
             .enumerate()
             .for_each_init(
                 || vec![C32::default(); scratch_len],
-                |scratch, (n, (rows, pw))| {
+                |scratch, (task, (rows, pw))| {
+                    let n0 = task * DOPPLER_BINS_PER_TASK;
+                    let nb = rows.len() / per;
                     for k in 0..nk {
-                        let row = &mut rows[k * nc..(k + 1) * nc];
-                        for (m, v) in row.iter_mut().enumerate() {
-                            *v = spec[(k * nc + m) * ns + n] * win[m];
+                        for (m, w) in win.iter().enumerate() {
+                            let src = &spec[(k * nc + m) * ns + n0..][..nb];
+                            for (b, v) in src.iter().enumerate() {
+                                rows[b * per + k * nc + m] = *v * *w;
+                            }
                         }
                     }
                     fft.process_with_scratch(rows, scratch);
-                    pw.fill(0.0);
-                    for k in 0..nk {
-                        for (p, v) in pw.iter_mut().zip(&rows[k * nc..(k + 1) * nc]) {
-                            *p += v.norm_sqr();
+                    for (b, pw) in pw.chunks_mut(nc).enumerate() {
+                        pw.fill(0.0);
+                        let rows = &rows[b * per..(b + 1) * per];
+                        for k in 0..nk {
+                            for (p, v) in pw.iter_mut().zip(&rows[k * nc..(k + 1) * nc]) {
+                                *p += v.norm_sqr();
+                            }
                         }
                     }
                 },
