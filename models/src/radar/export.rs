@@ -36,6 +36,12 @@ pub(super) fn emit(p: &mut RadarPhysics, out: &mut StepOutput) {
         .as_mut()
         .map(|r| std::mem::take(&mut r.peak))
         .unwrap_or_default();
+    let mut free = out
+        .perception
+        .radar
+        .as_mut()
+        .and_then(|r| r.free_space.take())
+        .unwrap_or_default();
     // The recognised objects go out; the previous output's list comes back for the next cycle.
     let mut moving = std::mem::take(&mut out.sensor_data.moving_object);
     std::mem::swap(&mut moving, &mut p.moving);
@@ -95,6 +101,26 @@ pub(super) fn emit(p: &mut RadarPhysics, out: &mut StepOutput) {
             power_dbm: m.power_dbm,
         }
     });
+    let free_space = p.recognition.free_space().map(|f| {
+        free.azimuth_start_rad = Some(f.azimuth_start_rad());
+        free.azimuth_step_rad = Some(f.sector_width_rad());
+        free.boundary_distance_m.clear();
+        free.boundary_distance_m.extend_from_slice(f.boundary_m());
+        free.cell_size_m = Some(f.config().cell_size_m);
+        if f.config().emit_grid {
+            let corner = f.grid_corner_m() - f.sensor_position_m().truncate();
+            free.cells_per_edge = Some(f.cells_per_edge() as u32);
+            free.corner_x_m = Some(corner.x);
+            free.corner_y_m = Some(corner.y);
+            f.probabilities_into(&mut free.occupancy);
+        } else {
+            free.cells_per_edge = Some(0);
+            free.corner_x_m = None;
+            free.corner_y_m = None;
+            free.occupancy.clear();
+        }
+        free
+    });
     out.perception.radar = Some(perception::RadarPerception {
         peak: peaks,
         waveform: Some(perception::RadarWaveform {
@@ -110,5 +136,6 @@ pub(super) fn emit(p: &mut RadarPhysics, out: &mut StepOutput) {
         misalignment_detections: p
             .online_calibration
             .then_some(p.misalignment.detections_used),
+        free_space,
     });
 }

@@ -225,6 +225,8 @@ impl Physics for RadarPhysics {
         // Recognise: detections → moving objects.
         self.moving.clear();
         self.recognition
+            .set_field_of_view(cfg.fov_horizontal_rad, cfg.range_m);
+        self.recognition
             .step(&ego, &self.detections, &mut self.moving);
         Ok(())
     }

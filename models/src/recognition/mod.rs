@@ -4,14 +4,18 @@
 //! * [`lidar`]: ground segmentation (RANSAC plane), Euclidean clustering, oriented boxes,
 //!   classification, tracking.
 //! * [`radar`]: DBSCAN clustering, ego-motion compensation, ghost rejection, tracking.
+//! * [`free_space`]: occupancy grid and free-space boundary from the radar's detections.
+//! * [`radar_stats`]: ghost statistics of a radar run against the ground truth.
 //! * [`tracking`]: Kalman-filter multi-object tracker shared by both.
 //! * [`common`]: object classes and the OSI output of a track.
 
 pub mod camera;
 pub mod common;
 pub mod ego_motion;
+pub mod free_space;
 pub mod lidar;
 pub mod radar;
+pub mod radar_stats;
 pub mod tracking;
 
 use glam::DVec3;

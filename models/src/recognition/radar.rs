@@ -20,12 +20,16 @@
 //!    `dbscan_velocity_scale_m_s`) with radius `dbscan_eps` and `dbscan_min_points` (1 by default:
 //!    a single strong detection is a cluster; temporal persistence rejects false alarms). Noise
 //!    points are dropped.
-//! 4. **Guardrail ghosts**: a stationary cluster with at least `guardrail_min_points` detections
-//!    whose principal axis (PCA in x-y) is at least `guardrail_min_length_m` long and whose RMS
-//!    distance to that axis is at most `guardrail_max_rms_m` is a reflecting line segment
-//!    (guardrail, wall). A moving cluster whose line of sight from the sensor crosses such a
-//!    segment and ends more than `ghost_margin_m` beyond it is a mirror image (the real target is in
-//!    front of the segment) and is dropped.
+//! 4. **Guardrail ghosts**: the stationary detections are linked in x-y (single linkage, DBSCAN
+//!    with one point, radius `guardrail_link_m`: a rail returns at its posts and joints, metres
+//!    apart); a group of at least `guardrail_min_points` detections whose principal axis (PCA in
+//!    x-y) is at least `guardrail_min_length_m` long and whose RMS distance to that axis is at most
+//!    `guardrail_max_rms_m` is a reflecting line segment (guardrail, wall). A moving cluster whose
+//!    line of sight from the sensor crosses such a segment and ends more than `ghost_margin_m`
+//!    beyond it is a mirror image (the real target is in front of the segment), and a moving
+//!    cluster within `rail_band_m` of a segment is Doppler-inconsistent (a moving return sitting on
+//!    a static rail: the car → rail → radar path, which the radar places at the rail); both are
+//!    dropped. With `ghost_rejection` off, steps 2 and 4 drop nothing.
 //! 5. **Tracking** ([`super::tracking`]): a cluster gives its centroid (fixed frame) with covariance
 //!    `σ_r²·u uᵀ + (r·σ_az)²·u⊥ u⊥ᵀ + σ_e²·I` (range/azimuth noise rotated into x-y plus the target
 //!    extent `σ_e` = `extent_std_m`) and its mean compensated range rate as the EKF radial-velocity
@@ -41,12 +45,16 @@
 //!    [`crate::ideal::default_rcs_moving_dbsm`]), `Unknown` at a 2σ constant. Each input detection
 //!    of a cluster that updated (or started) a track reported this cycle belongs to that track
 //!    ([`RadarRecognition::detection_objects`]: the OSI `object_id` of its `RadarDetection`).
+//! 7. **Free space** ([`super::free_space`], `free_space.enabled`): the detections kept by steps 2
+//!    and 4 update a log-odds occupancy grid in the fixed frame (stationary ones occupy their cell,
+//!    every ray frees the cells before it) and give the free-space boundary per azimuth sector.
 
 use glam::{DVec2, DVec3};
 use osiris_proto::osi3;
 use serde::{Deserialize, Serialize};
 
 use super::common::{self, ObjectClass, Report};
+use super::free_space::{FreeSpace, FreeSpaceDetection};
 use super::tracking::{Measurement, RadialVelocity, Tracker, TrackerConfig};
 use super::{EgoState, RadarDetection};
 use crate::error::ModelError;
@@ -88,8 +96,21 @@ pub struct RadarRecognitionConfig {
     pub guardrail_max_rms_m: f64,
     /// A moving cluster this far beyond a guardrail is a ghost, m.
     pub ghost_margin_m: f64,
+    /// Stationary detections closer than this in x-y belong to one guardrail candidate, m
+    /// (guessed: above the 2–4 m post spacing of a W-beam rail, below a lane's length of gap).
+    pub guardrail_link_m: f64,
+    /// A moving cluster within this distance of a guardrail line is a ghost (a moving return
+    /// cannot sit on a static rail: a car → rail → radar path), m (guessed: the rail's fitted
+    /// RMS).
+    pub rail_band_m: f64,
     /// Whether stationary clusters start tracks.
     pub track_stationary: bool,
+    /// Whether the ghost rejection runs (steps 2 and 4: below-ground detections dropped, mirror
+    /// clusters behind a guardrail not tracked). Off, every detection is clustered and tracked;
+    /// for measuring the rejection's effect ([`super::radar_stats`]).
+    pub ghost_rejection: bool,
+    /// Free space and occupancy grid from the detections ([`super::free_space`]).
+    pub free_space: super::free_space::FreeSpaceConfig,
     /// Multi-object tracker.
     pub tracker: TrackerConfig,
 }
@@ -109,11 +130,15 @@ impl Default for RadarRecognitionConfig {
             dbscan_min_points: 1,
             dbscan_position_scale_m: 2.0,
             dbscan_velocity_scale_m_s: 1.0,
-            guardrail_min_points: 4,
+            guardrail_min_points: 3,
             guardrail_min_length_m: 5.0,
             guardrail_max_rms_m: 0.5,
             ghost_margin_m: 1.0,
+            guardrail_link_m: 6.0,
+            rail_band_m: 0.5,
             track_stationary: false,
+            ghost_rejection: true,
+            free_space: super::free_space::FreeSpaceConfig::default(),
             tracker: TrackerConfig::default(),
         }
     }
@@ -133,6 +158,7 @@ impl RadarRecognitionConfig {
             ("dbscan_velocity_scale_m_s", self.dbscan_velocity_scale_m_s),
             ("guardrail_min_length_m", self.guardrail_min_length_m),
             ("guardrail_max_rms_m", self.guardrail_max_rms_m),
+            ("guardrail_link_m", self.guardrail_link_m),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return Err(ModelError::Config(format!(
@@ -144,6 +170,7 @@ impl RadarRecognitionConfig {
             ("extent_std_m", self.extent_std_m),
             ("below_ground_margin_m", self.below_ground_margin_m),
             ("ghost_margin_m", self.ghost_margin_m),
+            ("rail_band_m", self.rail_band_m),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(ModelError::Config(format!(
@@ -167,6 +194,7 @@ impl RadarRecognitionConfig {
                 "radar.recognition.guardrail_min_points must be at least 2".into(),
             ));
         }
+        self.free_space.validate("radar.recognition.free_space")?;
         self.tracker.validate("radar.recognition.tracker")
     }
 }
@@ -273,6 +301,18 @@ pub fn dbscan(
     }
 }
 
+/// Distance in x-y from `p` to the segment `seg`, m.
+pub fn distance_to_segment(p: DVec2, seg: &LineSegment) -> f64 {
+    let e = seg.b - seg.a;
+    let l2 = e.length_squared();
+    let s = if l2 > 0.0 {
+        ((p - seg.a).dot(e) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (seg.a + s * e - p).length()
+}
+
 /// Whether the line of sight from `sensor` to `target` crosses `seg` and `target` lies more than
 /// `margin_m` beyond it.
 pub fn behind_segment(sensor: DVec2, target: DVec2, seg: &LineSegment, margin_m: f64) -> bool {
@@ -325,6 +365,10 @@ pub struct RadarRecognition {
     detection_objects: Vec<Option<u64>>,
     /// (tracking id, ground truth of its last update) of the objects reported by the last step.
     reported: Vec<(u64, Option<u64>)>,
+    /// Occupancy grid and free-space boundary (`None` when `free_space.enabled` is off).
+    free_space: Option<FreeSpace>,
+    /// Horizontal field of view, rad, and range, m, for the free-space sectors.
+    field_of_view: (f64, f64),
 }
 
 impl RadarRecognition {
@@ -350,7 +394,24 @@ impl RadarRecognition {
             cluster_track: Vec::new(),
             detection_objects: Vec::new(),
             reported: Vec::new(),
+            free_space: if config.free_space.enabled {
+                Some(FreeSpace::new(&config.free_space)?)
+            } else {
+                None
+            },
+            field_of_view: (std::f64::consts::FRAC_PI_2, 100.0),
         })
+    }
+
+    /// The sensor's horizontal field of view (rad) and range (m) in force, for the free-space
+    /// sectors (set before [`RadarRecognition::step`] when they change).
+    pub fn set_field_of_view(&mut self, horizontal_rad: f64, range_m: f64) {
+        self.field_of_view = (horizontal_rad, range_m);
+    }
+
+    /// The occupancy grid and free-space boundary after the last step (`None`: disabled).
+    pub fn free_space(&self) -> Option<&FreeSpace> {
+        self.free_space.as_ref()
     }
 
     /// The compensated detections of the last step (same order as the input).
@@ -376,6 +437,19 @@ impl RadarRecognition {
     ) {
         self.detect(ego, detections);
         self.track(ego, out);
+        if let Some(fs) = &mut self.free_space {
+            // Step 7: the kept detections (not below ground, not in a mirror cluster).
+            let (comp, det_cluster, clusters) =
+                (&self.compensated, &self.det_cluster, &self.clusters);
+            let kept = comp.iter().zip(det_cluster).filter_map(|(d, &k)| {
+                let cl = clusters.get(k as usize)?;
+                (!d.below_ground && !cl.ghost).then_some(FreeSpaceDetection {
+                    position_m: d.position_m,
+                    moving: d.moving,
+                })
+            });
+            fs.update(ego, kept, self.field_of_view.0, self.field_of_view.1);
+        }
         self.detection_objects.clear();
         self.detection_objects.extend(
             self.det_cluster
@@ -416,7 +490,7 @@ impl RadarRecognition {
                 - c.sensor_height_m
                 - c.below_ground_margin_m
                 - 2.0 * d.range_m * c.elevation_std_rad;
-            let below = ok && p.z < floor;
+            let below = c.ghost_rejection && ok && p.z < floor;
             self.compensated.push(CompensatedDetection {
                 position_m: p,
                 range_rate_m_s: rr,
@@ -491,26 +565,46 @@ impl RadarRecognition {
                 ghost: false,
                 ground_truth_id: gt,
             });
-            if !moving
-                && self.members.len() >= c.guardrail_min_points
-                && let Some(seg) = fit_segment(
-                    self.members
-                        .iter()
-                        .map(|&i| self.compensated[i].position_m.truncate()),
-                    c.guardrail_min_length_m,
-                    c.guardrail_max_rms_m,
-                )
+        }
+        // Guardrails: the stationary detections linked in x-y within `guardrail_link_m` (a rail
+        // returns at its posts and joints, metres apart, so the (x, y, ṙ) clusters split it).
+        self.members.clear();
+        self.members.extend(
+            self.kept
+                .iter()
+                .copied()
+                .filter(|&i| !self.compensated[i].moving),
+        );
+        self.scaled.clear();
+        for &i in &self.members {
+            let p = self.compensated[i].position_m;
+            self.scaled
+                .push([p.x / c.guardrail_link_m, p.y / c.guardrail_link_m, 0.0]);
+        }
+        dbscan(&self.scaled, 1.0, 1, &mut self.labels, &mut self.queue);
+        let n_rails = self.labels.iter().copied().max().map_or(0, |m| m + 1);
+        for l in 0..n_rails {
+            let points = self
+                .members
+                .iter()
+                .zip(&self.labels)
+                .filter(move |(_, x)| **x == l)
+                .map(|(&i, _)| self.compensated[i].position_m.truncate());
+            if points.clone().count() >= c.guardrail_min_points
+                && let Some(seg) =
+                    fit_segment(points, c.guardrail_min_length_m, c.guardrail_max_rms_m)
             {
                 self.guardrails.push(seg);
             }
         }
         let sensor = ego.sensor_pose.position.truncate();
         for cl in &mut self.clusters {
-            if cl.moving {
-                cl.ghost = self
-                    .guardrails
-                    .iter()
-                    .any(|g| behind_segment(sensor, cl.position_m.truncate(), g, c.ghost_margin_m));
+            if cl.moving && c.ghost_rejection {
+                let p = cl.position_m.truncate();
+                cl.ghost = self.guardrails.iter().any(|g| {
+                    behind_segment(sensor, p, g, c.ghost_margin_m)
+                        || distance_to_segment(p, g) <= c.rail_band_m
+                });
             }
         }
     }
@@ -676,6 +770,9 @@ impl RadarRecognition {
         self.cluster_track.clear();
         self.detection_objects.clear();
         self.reported.clear();
+        if let Some(fs) = &mut self.free_space {
+            fs.reset();
+        }
     }
 }
 
