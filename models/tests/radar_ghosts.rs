@@ -125,11 +125,12 @@ const FRAMES: usize = 40;
 
 /// The highway drive through a radar with `multipath` and `ghost_rejection` as given (road
 /// multipath on): the ghost statistics of its `FRAMES` cycles.
-fn drive(multipath: bool, ghost_rejection: bool) -> GhostCounts {
+fn drive(multipath: bool, ghost_rejection: bool, clutter: bool) -> GhostCounts {
     let mut s = radar(
         &[
             ("radar.multipath", multipath),
             ("radar.ground_multipath", true),
+            ("radar.road_clutter", clutter),
         ],
         ghost_rejection,
     );
@@ -178,36 +179,53 @@ fn print(label: &str, n: &GhostCounts) {
 
 #[test]
 fn ghost_statistics_on_a_guardrail_highway() {
-    let on = drive(true, true);
+    // Road clutter off for (a)–(c): a perception peak names its strongest contribution, and in
+    // the cells where road clutter outshines a weak mirror path the ghost is counted as the
+    // road's (measured with clutter on: 6 behind the rail with multipath, 2 without); (d) runs
+    // the default radar with clutter.
+    let on = drive(true, true, false);
     print("multipath on, rejection on", &on);
-    let off = drive(false, true);
+    let off = drive(false, true, false);
     print("multipath off, rejection on", &off);
-    let raw = drive(true, false);
+    let raw = drive(true, false, false);
     print("multipath on, rejection off", &raw);
-    // Measured (seed 1, 40 cycles): 586 detections; behind the rail 14 with `radar.multipath`, 5
-    // without (rail returns smeared beyond its line); below ground 120 / 134 (road image paths and
-    // the coarse elevation of the one-offset array; `radar.ground_multipath` is on in both).
+    let cl = drive(true, true, true);
+    print("with road clutter: multipath on, rejection on", &cl);
+    let cl_raw = drive(true, false, true);
+    print("with road clutter: multipath on, rejection off", &cl_raw);
+    // Measured (seed 1, 40 cycles, `radar.diffuse_scattering` on): 577 detections; behind the
+    // rail 6 with `radar.multipath`, 2 without (rail returns smeared beyond its line); below
+    // ground 120 / 107 (road image paths and the coarse elevation of the one-offset array;
+    // `radar.ground_multipath` is on in both). Without diffuse scattering (the specular paths
+    // only) there were 14 and 5 behind the rail: the diffuse returns of the car now win some of
+    // the mirror paths' cells.
     // (a) The multipath makes ghosts behind the guardrail.
-    assert!(on.behind_guardrail >= 10, "{on:?}");
+    assert!(on.behind_guardrail >= 4, "{on:?}");
     assert!(
         on.behind_guardrail > 2 * off.behind_guardrail,
         "{on:?} / {off:?}"
     );
-    // (b) With the rejection, ghost objects: 7 object-cycles from 2 tracks (1 behind the rail,
-    // 5 below the road, 1 beside the cars);
-    // no target lost, none late, 4 of 79 target-cycles missed (confirmation delay).
-    assert!(on.ghost_objects <= 8 && on.ghost_tracks <= 2, "{on:?}");
+    // (b) With the rejection, ghost objects: 1 object-cycle from 1 track (behind the rail);
+    // no target lost, none late, 2 of 72 target-cycles missed (confirmation delay).
+    assert!(on.ghost_objects <= 2 && on.ghost_tracks <= 1, "{on:?}");
     assert_eq!((on.targets_lost, on.targets_late), (0, 0), "{on:?}");
     assert!(on.target_frames_missed <= 5, "{on:?}");
     assert_eq!(off.ghost_objects, 0, "{off:?}");
-    // (c) Without it, the ghosts of the rail get through as objects: 13 object-cycles, 4 tracks.
+    // (c) Without it, the rail's ghosts get through as objects: 3 object-cycles, 2 of them
+    // behind the rail.
     assert_eq!(raw.detections, on.detections);
     assert!(raw.ghost_objects > on.ghost_objects, "{raw:?}");
-    assert!(raw.ghost_tracks > on.ghost_tracks, "{raw:?}");
     assert!(
         raw.ghost_objects_behind_guardrail > on.ghost_objects_behind_guardrail,
         "{raw:?}"
     );
+    // (d) With road clutter (the default radar; its weak stationary returns are kept out of the
+    // clusters by `clutter_max_rcs_dbsm`), measured: 7 ghost object-cycles from 3 tracks with the
+    // rejection, 9 without; no target lost or late.
+    assert!(cl.static_world > on.static_world, "{cl:?}");
+    assert!(cl.ghost_objects <= 8 && cl.ghost_tracks <= 3, "{cl:?}");
+    assert_eq!((cl.targets_lost, cl.targets_late), (0, 0), "{cl:?}");
+    assert!(cl_raw.ghost_objects > cl.ghost_objects, "{cl_raw:?}");
 }
 
 /// The sensor's pose in the free-space drive at `t` (host at 15 m/s).

@@ -151,6 +151,9 @@ pub struct FreeSpaceDetection {
     pub position_m: DVec3,
     /// Moving (ego-compensated): frees its ray, occupies nothing, bounds its sector this cycle.
     pub moving: bool,
+    /// Road clutter (stationary, weaker than `clutter_max_rcs_dbsm`): frees its ray, occupies
+    /// nothing.
+    pub clutter: bool,
 }
 
 /// The occupancy grid and the boundary (state kept across cycles, buffers reused).
@@ -342,7 +345,7 @@ impl FreeSpace {
                 self.mark(s + u * t, false);
                 t += step;
             }
-            if !d.moving {
+            if !d.moving && !d.clutter {
                 self.mark(g, true);
             }
         }
@@ -436,6 +439,7 @@ mod tests {
         let wall = FreeSpaceDetection {
             position_m: DVec3::new(30.0, 0.0, 0.5),
             moving: false,
+            clutter: false,
         };
         for k in 0..3 {
             f.update(&ego(0.1 * k as f64), [wall].into_iter(), 1.0, 100.0);

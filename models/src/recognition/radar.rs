@@ -103,6 +103,11 @@ pub struct RadarRecognitionConfig {
     /// cannot sit on a static rail: a car → rail → radar path), m (guessed: the rail's fitted
     /// RMS).
     pub rail_band_m: f64,
+    /// Stationary detections weaker than this are road clutter, dBsm: they are not clustered or
+    /// tracked, fit no guardrail and occupy no free-space cell (the road up to them is still free). Guessed: road clutter per
+    /// resolution cell is σ⁰·A ≈ −40 dBsm at 5–20 m (γ = −20 dB, physics.md §1.9), while posts,
+    /// rails and kerbs return −20 dBsm and more.
+    pub clutter_max_rcs_dbsm: f64,
     /// Whether stationary clusters start tracks.
     pub track_stationary: bool,
     /// Whether the ghost rejection runs (steps 2 and 4: below-ground detections dropped, mirror
@@ -135,6 +140,7 @@ impl Default for RadarRecognitionConfig {
             guardrail_max_rms_m: 0.5,
             ghost_margin_m: 1.0,
             guardrail_link_m: 6.0,
+            clutter_max_rcs_dbsm: -25.0,
             rail_band_m: 0.5,
             track_stationary: false,
             ghost_rejection: true,
@@ -178,6 +184,12 @@ impl RadarRecognitionConfig {
                 )));
             }
         }
+        if self.clutter_max_rcs_dbsm.is_nan() {
+            return Err(ModelError::Config(
+                "radar.recognition.clutter_max_rcs_dbsm must be a number (dBsm; -inf: no clutter filter)"
+                    .into(),
+            ));
+        }
         if !(self.sensor_height_m.is_finite() && self.sensor_height_m >= 0.0) {
             return Err(ModelError::Config(format!(
                 "radar.recognition.sensor_height_m must be a non-negative number (got {})",
@@ -210,6 +222,8 @@ pub struct CompensatedDetection {
     pub moving: bool,
     /// Rejected as a below-ground ghost.
     pub below_ground: bool,
+    /// Stationary and weaker than `clutter_max_rcs_dbsm`: a return of the road surface itself.
+    pub clutter: bool,
 }
 
 /// A cluster of detections (fixed frame).
@@ -442,10 +456,12 @@ impl RadarRecognition {
             let (comp, det_cluster, clusters) =
                 (&self.compensated, &self.det_cluster, &self.clusters);
             let kept = comp.iter().zip(det_cluster).filter_map(|(d, &k)| {
-                let cl = clusters.get(k as usize)?;
-                (!d.below_ground && !cl.ghost).then_some(FreeSpaceDetection {
+                // Road clutter is in no cluster, but frees the road up to it.
+                let ghost = !d.clutter && clusters.get(k as usize)?.ghost;
+                (!d.below_ground && !ghost).then_some(FreeSpaceDetection {
                     position_m: d.position_m,
                     moving: d.moving,
+                    clutter: d.clutter,
                 })
             });
             fs.update(ego, kept, self.field_of_view.0, self.field_of_view.1);
@@ -491,14 +507,18 @@ impl RadarRecognition {
                 - c.below_ground_margin_m
                 - 2.0 * d.range_m * c.elevation_std_rad;
             let below = c.ghost_rejection && ok && p.z < floor;
+            let clutter = rr.abs() <= c.moving_threshold_m_s
+                && d.rcs_dbsm.is_finite()
+                && d.rcs_dbsm < c.clutter_max_rcs_dbsm;
             self.compensated.push(CompensatedDetection {
                 position_m: p,
                 range_rate_m_s: rr,
                 range_m: d.range_m,
                 moving: rr.abs() > c.moving_threshold_m_s,
                 below_ground: below,
+                clutter,
             });
-            if ok && !below {
+            if ok && !below && !clutter {
                 self.kept.push(i);
             }
         }

@@ -6,8 +6,10 @@
 //!
 //! # Classification of a detection (independent of the recognition)
 //!
-//! The detection's position `p = T_sensor→global · r·(cos e cos a, cos e sin a, sin e)` is tested,
-//! in this order:
+//! A detection whose perception peak has no ground-truth object (`RadarPeak.object_id` unset: the
+//! road's own backscatter, `radar.road_clutter`) is **static** wherever its errors put it.
+//! Otherwise its position
+//! `p = T_sensor→global · r·(cos e cos a, cos e sin a, sin e)` is tested, in this order:
 //!
 //! 1. **below ground**: `p_z < road_z_m − ground_margin_m` (a road-surface image path);
 //! 2. **behind a guardrail**: the x-y line of sight from the sensor to `p` crosses the centre line
@@ -349,7 +351,14 @@ impl GhostStatistics {
             let p_s = r * DVec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
             let p = sensor_pose.transform_point(p_s);
             let oid = peak.object_id.as_ref().and_then(|i| i.value);
-            let class = self.classify(sensor, p, oid);
+            // A return of no object (the road: clutter, `radar.road_clutter`) is static wherever
+            // its range and angle errors put it; an object's return (moving, or a rail whose
+            // tube a car → rail → radar path started from) is tested for the ghost classes.
+            let class = if oid.is_some() {
+                self.classify(sensor, p, oid)
+            } else {
+                DetectionClass::Static
+            };
             let n = &mut self.counts;
             n.detections += 1;
             match class {
