@@ -129,6 +129,15 @@ fn smallest_of_mean(n: usize, k: usize, mut p: impl FnMut(usize) -> f64) -> f64 
 /// Marks a bin of [`FmcwScratch::power`] that the spectral synthesis has not drawn (yet).
 const UNSET: f32 = -1.0;
 
+/// Copies the spectrum and the peaks of ramp `ramp` from the scratch into `spectra` (if any):
+/// the bins the detection drew (every bin for the time synthesis).
+fn capture(spectra: &mut Option<&mut BeatSpectra>, s: &FmcwScratch, ramp: usize) {
+    if let Some(sp) = spectra.as_deref_mut() {
+        sp.power[ramp].copy_from_slice(&s.power);
+        sp.peaks_hz[ramp].extend(s.peaks[ramp].iter().map(|p| p.frequency_hz));
+    }
+}
+
 /// Power of bin `k`: drawn on first use as noise, Exp(mean `noise`), where the spectral synthesis
 /// left it unset (a bin outside every tone's window: physics.md §2.10).
 fn bin_power<R: Rng + ?Sized>(
@@ -235,6 +244,21 @@ pub struct BeatPeak {
     pub power: f64,
     /// −3 dB width, bins.
     pub width_bins: f64,
+}
+
+/// The beat spectra of one beam's two ramps as its detection saw them
+/// ([`FmcwDetector::detect_with_spectra`], `lidar.fmcw.emit_beat_spectra`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct BeatSpectra {
+    /// Hann-windowed power |X_k|² of the up (`0`) and the down (`1`, conjugated so that its tones
+    /// sit at +f_down) ramp, noise units (the mean noise power per bin is
+    /// [`FmcwDetector::noise_per_bin`]), N bins in FFT order (bin k at k·f_s/N, k ≥ N/2 negative).
+    /// The spectral synthesis's bins outside its windows are noise drawn after the detection (so
+    /// the echoes are those without the request): Exp(Σw²) conditioned below the threshold, except
+    /// the threshold crossings it drew.
+    pub power: [Vec<f32>; 2],
+    /// The detected peaks of each ramp (before pairing), interpolated frequency, Hz, ascending.
+    pub peaks_hz: [Vec<f64>; 2],
 }
 
 /// Per-thread buffers of [`FmcwDetector::detect`].
@@ -401,8 +425,50 @@ impl FmcwDetector {
         rng: &mut R,
         out: &mut Vec<FmcwEcho>,
     ) {
+        self.detect_inner(scratch, returns, background_w, rng, out, None);
+    }
+
+    /// [`Self::detect`], and the two ramps' beat spectra and peaks into `spectra` (resized to N
+    /// bins; no allocation once grown). The echoes and the random draws they use are those of
+    /// [`Self::detect`]: the spectra's extra noise is drawn from `rng` after the detection.
+    pub fn detect_with_spectra<R: Rng + ?Sized>(
+        &self,
+        scratch: &mut FmcwScratch,
+        returns: &[FmcwReturn],
+        background_w: f64,
+        rng: &mut R,
+        out: &mut Vec<FmcwEcho>,
+        spectra: &mut BeatSpectra,
+    ) {
+        let n = self.config.samples_per_chirp;
+        for ramp in 0..2 {
+            spectra.power[ramp].clear();
+            spectra.power[ramp].resize(n, UNSET);
+            spectra.peaks_hz[ramp].clear();
+        }
+        self.detect_inner(scratch, returns, background_w, rng, out, Some(spectra));
+        // Bins the detection never drew: noise below the threshold (it found no crossing there),
+        // Exp(Σw²) conditioned on < T by inversion: −Σw²·ln(1 − u(1 − P_FA)).
+        let keep = 1.0 - self.config.false_alarm_probability;
+        for ramp in 0..2 {
+            for v in spectra.power[ramp].iter_mut().filter(|v| **v == UNSET) {
+                let u: f64 = rng.random();
+                *v = (-self.noise_bin * (-u * keep).ln_1p()) as f32;
+            }
+        }
+    }
+
+    fn detect_inner<R: Rng + ?Sized>(
+        &self,
+        scratch: &mut FmcwScratch,
+        returns: &[FmcwReturn],
+        background_w: f64,
+        rng: &mut R,
+        out: &mut Vec<FmcwEcho>,
+        mut spectra: Option<&mut BeatSpectra>,
+    ) {
         if returns.is_empty() {
-            self.false_alarms(rng, out);
+            self.false_alarms(rng, out, spectra);
             return;
         }
         let total_w: f64 = returns.iter().map(|r| r.power_w.max(0.0)).sum();
@@ -415,10 +481,12 @@ impl FmcwDetector {
                     self.spectrum(scratch);
                     self.collect_candidates(scratch);
                     self.find_peaks(scratch, ramp, rng);
+                    capture(&mut spectra, scratch, ramp);
                 }
                 Synthesis::Spectral => {
                     self.spectral_ramp(scratch, returns, snr_per_w, ramp, rng);
                     self.find_peaks(scratch, ramp, rng);
+                    capture(&mut spectra, scratch, ramp);
                     self.reset_spectral(scratch);
                 }
             }
@@ -449,7 +517,8 @@ impl FmcwDetector {
         // k = −d_max+1 … N−1, stored at bit index k + d_max.
         let dt = 1.0 / self.config.adc_rate_hz;
         let d_of = |r: &FmcwReturn| -> usize {
-            let d = (ChirpPlan::delay_s(r.range_m.max(0.0)) / dt).round();
+            let range = self.plan.ramp_range_m(r.range_m, r.range_rate_m_s, ramp);
+            let d = (ChirpPlan::delay_s(range.max(0.0)) / dt).round();
             (d as usize).min(max_delay_samples(n))
         };
         let d_max = if self.phase_noise {
@@ -558,7 +627,8 @@ impl FmcwDetector {
             s.amps[i][ramp] = amp.norm_sqr();
             let (start, lin, quad) = self.tone_phase(r, ramp);
             let (tau_s, coherent) = if self.phase_noise {
-                let d = (ChirpPlan::delay_s(r.range_m.max(0.0)) / dt).round();
+                let range = self.plan.ramp_range_m(r.range_m, r.range_rate_m_s, ramp);
+                let d = (ChirpPlan::delay_s(range.max(0.0)) / dt).round();
                 let d = (d as usize).min(max_delay_samples(n)) as f64;
                 (d * dt, (-self.pn_sigma * self.pn_sigma * d).exp())
             } else {
@@ -797,9 +867,12 @@ impl FmcwDetector {
         let t0 = self.plan.window_start_s();
         let tc = self.config.chirp_time_s;
         let dt = 1.0 / self.config.adc_rate_hz;
-        let (f_up, f_down) = self.plan.beat_hz(r.range_m, r.range_rate_m_s);
+        // The ramp's own range: the down ramp of sequential ramps sees the target moved by
+        // v_r·T_c (inter-chirp motion, physics.md §2.8).
+        let range = self.plan.ramp_range_m(r.range_m, r.range_rate_m_s, ramp);
+        let (f_up, f_down) = self.plan.measured_beat_hz(r.range_m, r.range_rate_m_s);
         let f_b = if ramp == 0 { f_up } else { f_down };
-        let tau = ChirpPlan::delay_s(r.range_m);
+        let tau = ChirpPlan::delay_s(range);
         let mut c1 = two_pi * f_b;
         let mut c2 = 0.0;
         if self.nonlinearity {
@@ -808,8 +881,8 @@ impl FmcwDetector {
             c2 += sign * -two_pi * delta * 4.0 * tau / (tc * tc);
             c1 += sign * two_pi * delta * (4.0 * tau / tc) * (1.0 + tau / tc);
         }
-        let phi0 = (sign * 4.0 * std::f64::consts::PI * r.range_m / self.plan.wavelength_m)
-            .rem_euclid(two_pi);
+        let phi0 =
+            (sign * 4.0 * std::f64::consts::PI * range / self.plan.wavelength_m).rem_euclid(two_pi);
         let start = phi0 + c1 * t0 + c2 * t0 * t0;
         (
             (start).rem_euclid(two_pi),
@@ -1139,7 +1212,7 @@ impl FmcwDetector {
             let mut object_id = NO_OBJECT;
             let mut strongest = 0.0;
             for (r, a) in returns.iter().zip(&s.amps) {
-                let (fu, fd) = self.plan.beat_hz(r.range_m, r.range_rate_m_s);
+                let (fu, fd) = self.plan.measured_beat_hz(r.range_m, r.range_rate_m_s);
                 let du = self.plan.alias_hz(fu - u.frequency_hz).abs();
                 let dd = self.plan.alias_hz(fd - d.frequency_hz).abs();
                 let w = a[0] + a[1];
@@ -1161,8 +1234,14 @@ impl FmcwDetector {
         }
     }
 
-    /// False alarms of a beam without returns, drawn in closed form (module notes).
-    fn false_alarms<R: Rng + ?Sized>(&self, rng: &mut R, out: &mut Vec<FmcwEcho>) {
+    /// False alarms of a beam without returns, drawn in closed form (module notes). With
+    /// `spectra`, each crossing drawn is written to its bin (the rest is filled by the caller).
+    fn false_alarms<R: Rng + ?Sized>(
+        &self,
+        rng: &mut R,
+        out: &mut Vec<FmcwEcho>,
+        mut spectra: Option<&mut BeatSpectra>,
+    ) {
         let n = self.config.samples_per_chirp;
         let p_any = -(n as f64 * (-self.config.false_alarm_probability).ln_1p()).exp_m1();
         let mut f = [0.0f64; 2];
@@ -1171,10 +1250,15 @@ impl FmcwDetector {
             if rng.random::<f64>() >= p_any {
                 return;
             }
-            let k = rng.random_range(0..n) as f64 + rng.random::<f64>() - 0.5;
+            let bin = rng.random_range(0..n);
+            let k = bin as f64 + rng.random::<f64>() - 0.5;
             f[ramp] = self.bin_frequency_hz(k.rem_euclid(n as f64));
             let e: f64 = rng.sample(rand_distr::Exp1);
             pw[ramp] = self.threshold + e * self.noise_bin;
+            if let Some(sp) = spectra.as_deref_mut() {
+                sp.power[ramp][bin] = pw[ramp] as f32;
+                sp.peaks_hz[ramp].push(f[ramp]);
+            }
         }
         if !self.admissible(f[0], f[1]) {
             return;
