@@ -780,6 +780,7 @@ impl Recycled {
             c.echo.clear();
             c.object_id.clear();
             c.range_rate_m_s.clear();
+            c.beat_spectrum.clear();
             c.intensity_scale = None;
             c.wavelength_nm = None;
             c.pulses_fired = None;

@@ -292,6 +292,15 @@ struct Scratch {
     fmcw: Option<fmcw::FmcwScratch>,
 }
 
+/// The beat spectra of one beam selected by `lidar.fmcw.emit_beat_spectra`, refilled every frame.
+#[derive(Debug, Clone, Default)]
+pub struct BeamSpectrum {
+    /// Index of the firing in the cycle's plan ([`LidarEngine::firings`]).
+    pub firing: usize,
+    /// Its two ramps' spectra and peaks.
+    pub spectra: fmcw::BeatSpectra,
+}
+
 /// The per-frame pulse engine: the scan plan, the beam sampling and the detector, planned once;
 /// buffers reused across frames.
 pub struct LidarEngine {
@@ -314,6 +323,9 @@ pub struct LidarEngine {
     seed: u64,
     scratch: Mutex<Vec<Scratch>>,
     chunks: Vec<Vec<PointRecord>>,
+    /// Per chunk: the beams whose beat spectra are emitted (`lidar.fmcw.emit_beat_spectra`; all
+    /// empty without the request), planned once, refilled every frame.
+    spectra: Vec<Vec<BeamSpectrum>>,
 }
 
 /// Pose after `dt_s` for constant linear and angular velocity (as `WorldFrame::sensor_pose_at`).
@@ -395,7 +407,26 @@ impl LidarEngine {
             Some(f) => Some(fmcw::FmcwDetector::new(f, effects)?),
             None => None,
         };
+        let mut spectra = vec![Vec::new(); firings.len().div_ceil(CHUNK_PULSES)];
+        if let Some(req) = resolved
+            .fmcw
+            .as_ref()
+            .and_then(|f| f.emit_beat_spectra.as_ref())
+        {
+            for (i, _) in firings
+                .iter()
+                .enumerate()
+                .filter(|(_, f)| req.selects(f.channel, f.azimuth_rad))
+                .take(req.max_beams)
+            {
+                spectra[i / CHUNK_PULSES].push(BeamSpectrum {
+                    firing: i,
+                    spectra: fmcw::BeatSpectra::default(),
+                });
+            }
+        }
         Ok(LidarEngine {
+            spectra,
             fmcw,
             frames: firings.iter().map(beam_frame).collect(),
             firings,
@@ -425,6 +456,17 @@ impl LidarEngine {
         &self.sub_rays
     }
 
+    /// The beat spectra of the beams selected by `lidar.fmcw.emit_beat_spectra` in the last frame,
+    /// in firing order (none without the request).
+    pub fn beat_spectra(&self) -> impl Iterator<Item = &BeamSpectrum> {
+        self.spectra.iter().flatten()
+    }
+
+    /// The FMCW chain's detector (`preset: fmcw`).
+    pub fn fmcw_detector(&self) -> Option<&fmcw::FmcwDetector> {
+        self.fmcw.as_ref()
+    }
+
     /// The points of the last frame, per chunk of [`CHUNK_PULSES`] firings, in plan order.
     pub fn points(&self) -> &[Vec<PointRecord>] {
         &self.chunks
@@ -436,24 +478,30 @@ impl LidarEngine {
         let n_chunks = self.firings.len().div_ceil(CHUNK_PULSES);
         self.chunks.resize_with(n_chunks, Vec::new);
         let mut chunks = std::mem::take(&mut self.chunks);
+        let mut spectra = std::mem::take(&mut self.spectra);
         let this = &*self;
-        chunks.par_iter_mut().enumerate().for_each(|(ci, out)| {
-            out.clear();
-            let mut s = this
-                .scratch
-                .lock()
-                .map(|mut v| v.pop())
-                .ok()
-                .flatten()
-                .unwrap_or_default();
-            let lo = ci * CHUNK_PULSES;
-            let hi = (lo + CHUNK_PULSES).min(this.firings.len());
-            this.run_chunk(input, lo, hi, &mut s, out);
-            if let Ok(mut v) = this.scratch.lock() {
-                v.push(s);
-            }
-        });
+        chunks
+            .par_iter_mut()
+            .zip(spectra.par_iter_mut())
+            .enumerate()
+            .for_each(|(ci, (out, spec))| {
+                out.clear();
+                let mut s = this
+                    .scratch
+                    .lock()
+                    .map(|mut v| v.pop())
+                    .ok()
+                    .flatten()
+                    .unwrap_or_default();
+                let lo = ci * CHUNK_PULSES;
+                let hi = (lo + CHUNK_PULSES).min(this.firings.len());
+                this.run_chunk(input, lo, hi, &mut s, out, spec);
+                if let Ok(mut v) = this.scratch.lock() {
+                    v.push(s);
+                }
+            });
         self.chunks = chunks;
+        self.spectra = spectra;
         &self.chunks
     }
 
@@ -464,6 +512,7 @@ impl LidarEngine {
         hi: usize,
         s: &mut Scratch,
         out: &mut Vec<PointRecord>,
+        spectra: &mut [BeamSpectrum],
     ) {
         let m = self.sub_rays.len();
         s.rays.clear();
@@ -628,13 +677,23 @@ impl LidarEngine {
                     );
                 let scratch = s.fmcw.get_or_insert_with(|| det.scratch());
                 s.fmcw_echoes.clear();
-                det.detect(
-                    scratch,
-                    &s.fmcw_returns,
-                    background_w,
-                    &mut rng,
-                    &mut s.fmcw_echoes,
-                );
+                match spectra.iter_mut().find(|b| b.firing == lo + k) {
+                    Some(b) => det.detect_with_spectra(
+                        scratch,
+                        &s.fmcw_returns,
+                        background_w,
+                        &mut rng,
+                        &mut s.fmcw_echoes,
+                        &mut b.spectra,
+                    ),
+                    None => det.detect(
+                        scratch,
+                        &s.fmcw_returns,
+                        background_w,
+                        &mut rng,
+                        &mut s.fmcw_echoes,
+                    ),
+                }
                 s.fmcw_echoes
                     .sort_by(|x, y| x.range_m.total_cmp(&y.range_m));
                 for e in &s.fmcw_echoes {
@@ -936,6 +995,7 @@ impl Physics for LidarPhysics {
         } as i32);
         cloud.wavelength_nm = Some(self.resolved.wavelength_nm);
         cloud.pulses_fired = Some(self.engine.firings().len() as u64);
+        self.emit_beat_spectra(t0, &mut cloud);
 
         let sd = &mut out.sensor_data;
         sd.feature_data = Some(osi3::FeatureData {
@@ -957,6 +1017,48 @@ impl Physics for LidarPhysics {
         self.recognition.reset();
         self.points.clear();
         self.moving.clear();
+    }
+}
+
+impl LidarPhysics {
+    /// `cloud.beat_spectrum` from the engine's [`BeamSpectrum`]s (`lidar.fmcw.emit_beat_spectra`):
+    /// dB re the mean noise per bin, ascending frequency from −f_s/2; the messages and their
+    /// arrays of the previous cycle are reused. `t0_ns`: the frame's time.
+    fn emit_beat_spectra(&self, t0_ns: i64, cloud: &mut perception::LidarPerception) {
+        let mut used = 0;
+        if let Some(det) = self.engine.fmcw_detector() {
+            let noise = det.noise_per_bin();
+            let db = |p: f32| (10.0 * (f64::from(p) / noise).max(1e-30).log10()) as f32;
+            for b in self.engine.beat_spectra() {
+                if cloud.beat_spectrum.len() == used {
+                    cloud.beat_spectrum.push(Default::default());
+                }
+                let m = &mut cloud.beat_spectrum[used];
+                used += 1;
+                let f = &self.engine.firings()[b.firing];
+                m.channel = Some(f.channel);
+                m.firing_index = Some(b.firing as u32);
+                m.azimuth_rad = Some(f.azimuth_rad);
+                m.elevation_rad = Some(f.elevation_rad);
+                m.timestamp_ns = Some(t0_ns.saturating_add(f.t_ns));
+                m.bin_hz = Some(det.plan().bin_hz());
+                m.threshold_db = Some(db(det.threshold() as f32));
+                // FFT order → ascending frequency: bins N/2 … N − 1 (negative), then 0 … N/2 − 1.
+                for (dst, src) in [
+                    (&mut m.up_power_db, &b.spectra.power[0]),
+                    (&mut m.down_power_db, &b.spectra.power[1]),
+                ] {
+                    let half = src.len() / 2;
+                    dst.clear();
+                    dst.extend(src[half..].iter().chain(&src[..half]).map(|&p| db(p)));
+                }
+                m.up_peak_hz.clear();
+                m.up_peak_hz.extend_from_slice(&b.spectra.peaks_hz[0]);
+                m.down_peak_hz.clear();
+                m.down_peak_hz.extend_from_slice(&b.spectra.peaks_hz[1]);
+            }
+        }
+        cloud.beat_spectrum.truncate(used);
     }
 }
 

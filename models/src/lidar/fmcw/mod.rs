@@ -31,7 +31,7 @@ pub mod detector;
 pub mod waveform;
 
 pub use coherent::{CoherentReceiver, NoisePsd};
-pub use detector::{FmcwDetector, FmcwEcho, FmcwReturn, FmcwScratch};
+pub use detector::{BeatSpectra, FmcwDetector, FmcwEcho, FmcwReturn, FmcwScratch};
 pub use waveform::ChirpPlan;
 
 use serde::{Deserialize, Serialize};
@@ -144,6 +144,72 @@ pub struct FmcwConfig {
     /// form; physics.md §2.10) or `"time"` (the reference: the beat signal sample by sample, then
     /// the FFT; slower).
     pub synthesis: Synthesis,
+    /// Whether the up and down ramps are measured one after the other (`"sequential"`, default:
+    /// one laser, triangular sweep, 2T_c per beam) or at the same time (`"simultaneous"`: two
+    /// lasers or two modulation sidebands sweeping up and down together, T_c per beam, no
+    /// inter-chirp motion; physics.md §2.8).
+    pub chirp_mode: ChirpMode,
+    /// The beat spectra of selected beams in `PerceptionData.lidar.beat_spectrum` (debugging;
+    /// absent, the default: none, no cost).
+    pub emit_beat_spectra: Option<BeatSpectraRequest>,
+}
+
+/// [`FmcwConfig::chirp_mode`]: when the down ramp is measured relative to the up ramp.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ChirpMode {
+    /// Up ramp, then down ramp (one laser): the down ramp's window opens T_c after the up ramp's,
+    /// so a target at range rate v_r has moved by v_r·T_c between them.
+    #[default]
+    Sequential,
+    /// Up and down ramps at the same time (two lasers / sidebands, e.g. Aeva's): both windows see
+    /// the same range; the beam's dwell is T_c instead of 2T_c.
+    Simultaneous,
+}
+
+/// [`FmcwConfig::emit_beat_spectra`]: which beams' beat spectra go into
+/// `PerceptionData.lidar.beat_spectrum`. A beam is emitted when its channel is in `channels` (empty:
+/// any) and its azimuth in `azimuth_rad` (absent: any); the first `max_beams` such beams of the
+/// cycle's scan plan, in firing order.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BeatSpectraRequest {
+    /// Laser channels (the point cloud's `channel`); empty: every channel.
+    pub channels: Vec<u32>,
+    /// Azimuth window [from, to], rad, sensor frame, counter-clockwise from `from` to `to`
+    /// (wraps through ±π); absent: every azimuth.
+    pub azimuth_rad: Option<[f64; 2]>,
+    /// Most beams emitted per cycle, 1 … [`MAX_EMITTED_BEAMS`] (default 8).
+    pub max_beams: usize,
+}
+
+/// Upper bound of [`BeatSpectraRequest::max_beams`] (each beam is 2N floats in the output).
+pub const MAX_EMITTED_BEAMS: usize = 4096;
+
+impl Default for BeatSpectraRequest {
+    fn default() -> BeatSpectraRequest {
+        BeatSpectraRequest {
+            channels: Vec::new(),
+            azimuth_rad: None,
+            max_beams: 8,
+        }
+    }
+}
+
+impl BeatSpectraRequest {
+    /// Whether a firing of `channel` at `azimuth_rad` is selected (before the `max_beams` cap).
+    pub fn selects(&self, channel: u32, azimuth_rad: f64) -> bool {
+        if !self.channels.is_empty() && !self.channels.contains(&channel) {
+            return false;
+        }
+        match self.azimuth_rad {
+            Some([from, to]) => {
+                let tau = std::f64::consts::TAU;
+                (azimuth_rad - from).rem_euclid(tau) <= (to - from).rem_euclid(tau)
+            }
+            None => true,
+        }
+    }
 }
 
 /// [`FmcwConfig::synthesis`]: how the beat spectrum of a ramp is produced.
@@ -178,6 +244,8 @@ impl Default for FmcwConfig {
             max_returns_per_beam: 4,
             max_range_rate_m_s: 100.0,
             synthesis: Synthesis::Spectral,
+            chirp_mode: ChirpMode::Sequential,
+            emit_beat_spectra: None,
         }
     }
 }
@@ -267,6 +335,21 @@ impl FmcwConfig {
                 "`lidar.fmcw.max_returns_per_beam` must be in 1 … {MAX_RETURNS_PER_BEAM} (got {m})"
             )));
         }
+        if let Some(req) = &self.emit_beat_spectra {
+            let b = req.max_beams;
+            if !(1..=MAX_EMITTED_BEAMS).contains(&b) {
+                return Err(ModelError::Config(format!(
+                    "`lidar.fmcw.emit_beat_spectra.max_beams` must be in 1 … {MAX_EMITTED_BEAMS} (got {b})"
+                )));
+            }
+            if let Some(w) = req.azimuth_rad
+                && !w.iter().all(|a| a.is_finite())
+            {
+                return Err(ModelError::Config(format!(
+                    "`lidar.fmcw.emit_beat_spectra.azimuth_rad` must be two finite angles (got {w:?})"
+                )));
+            }
+        }
         Ok(())
     }
 }
@@ -290,6 +373,19 @@ mod tests {
         assert_eq!(FmcwConfig::default().synthesis, Synthesis::Spectral);
         let bad = serde_json::from_str::<FmcwConfig>(r#"{"synthesis": "fast"}"#);
         assert!(bad.unwrap_err().to_string().contains("spectral"));
+        let sim: FmcwConfig = serde_json::from_str(r#"{"chirp_mode": "simultaneous"}"#).unwrap();
+        assert_eq!(sim.chirp_mode, ChirpMode::Simultaneous);
+        let req: FmcwConfig =
+            serde_json::from_str(r#"{"emit_beat_spectra": {"channels": [3, 4]}}"#).unwrap();
+        let req = req.emit_beat_spectra.unwrap();
+        assert_eq!((req.channels.as_slice(), req.max_beams), (&[3, 4][..], 8));
+        assert!(req.selects(3, 1.0) && !req.selects(5, 1.0));
+        let window = BeatSpectraRequest {
+            azimuth_rad: Some([3.0, -3.0]),
+            ..Default::default()
+        };
+        // Counter-clockwise from 3 rad through π to −3 rad.
+        assert!(window.selects(0, 3.1) && window.selects(0, -3.1) && !window.selects(0, 0.0));
     }
 
     #[test]
@@ -310,6 +406,24 @@ mod tests {
         bad(&|c| c.quantum_efficiency = 1.5, "quantum_efficiency");
         bad(&|c| c.max_returns_per_beam = 0, "max_returns_per_beam");
         bad(&|c| c.linewidth_hz = f64::NAN, "linewidth_hz");
+        bad(
+            &|c| {
+                c.emit_beat_spectra = Some(BeatSpectraRequest {
+                    max_beams: 0,
+                    ..Default::default()
+                })
+            },
+            "emit_beat_spectra.max_beams",
+        );
+        bad(
+            &|c| {
+                c.emit_beat_spectra = Some(BeatSpectraRequest {
+                    azimuth_rad: Some([0.0, f64::INFINITY]),
+                    ..Default::default()
+                })
+            },
+            "emit_beat_spectra.azimuth_rad",
+        );
     }
 
     #[test]

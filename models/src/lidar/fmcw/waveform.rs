@@ -7,12 +7,21 @@
 //! f_up = f_R − f_D, the down ramp (conjugated so that its tone is at +f_down) f_down = f_R + f_D.
 //! Hence R = c(f_up + f_down)/(4κ) and v_r = λ(f_up − f_down)/4.
 //!
+//! **Chirp mode and inter-chirp motion** (`lidar.fmcw.chirp_mode`). Sequential ramps (one laser,
+//! the default): the down ramp's window opens T_c after the up ramp's, so a target at range rate v_r
+//! is at R + v_r·T_c in the down ramp (R: its range in the up ramp's window). Then
+//! f_down = 2κ(R + v_rT_c)/c − 2v_r/λ and the pair inverts to R̂ = R + v_rT_c/2 (the range at the
+//! middle of the two windows) and v̂_r = v_r(1 − κT_cλ/(2c)) = v_r(1 − Bλ/(2c)) (2.6·10⁻⁶ at the
+//! preset: negligible). Simultaneous ramps (two lasers or sidebands sweeping up and down at once,
+//! Aeva-style): both windows see R, R̂ = R, v̂_r = v_r, and a beam takes T_c instead of 2T_c.
+//! (Motion within one window, v_rT_w ≈ 0.1 mm at 40 m/s, is neglected.)
+//!
 //! The I/Q ADC samples N points at f_s at the end of each ramp (window T_w = N/f_s): frequency bins
 //! are f_s/N wide and the band is [−f_s/2, f_s/2); a beat outside it aliases (wraps by f_s).
 
 use crate::constants::SPEED_OF_LIGHT_M_S;
 
-use super::FmcwConfig;
+use super::{ChirpMode, FmcwConfig};
 
 /// The chirp plan of one beam, derived once from [`FmcwConfig`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -27,6 +36,9 @@ pub struct ChirpPlan {
     pub adc_rate_hz: f64,
     /// Samples per ramp N.
     pub samples: usize,
+    /// Time from the up ramp's sampling window to the down ramp's, s: T_c for sequential ramps,
+    /// 0 for simultaneous ones (`lidar.fmcw.chirp_mode`).
+    pub down_ramp_delay_s: f64,
 }
 
 impl ChirpPlan {
@@ -38,7 +50,41 @@ impl ChirpPlan {
             chirp_time_s: config.chirp_time_s,
             adc_rate_hz: config.adc_rate_hz,
             samples: config.samples_per_chirp,
+            down_ramp_delay_s: match config.chirp_mode {
+                ChirpMode::Sequential => config.chirp_time_s,
+                ChirpMode::Simultaneous => 0.0,
+            },
         }
+    }
+
+    /// Dwell of one beam (both ramps), s: 2T_c sequential, T_c simultaneous.
+    pub fn beam_dwell_s(&self) -> f64 {
+        self.chirp_time_s + self.down_ramp_delay_s
+    }
+
+    /// Range of a target during one ramp's window (0 up, 1 down), m: `range_m` (its range in the up
+    /// ramp's window) moved by the range rate over [`Self::down_ramp_delay_s`] for the down ramp.
+    pub fn ramp_range_m(&self, range_m: f64, range_rate_m_s: f64, ramp: usize) -> f64 {
+        if ramp == 0 {
+            range_m
+        } else {
+            range_m + range_rate_m_s * self.down_ramp_delay_s
+        }
+    }
+
+    /// Measured beat frequencies (f_up, f_down) of a target at `range_m` in the up ramp's window,
+    /// with the inter-chirp motion of the chirp mode: f_down uses [`Self::ramp_range_m`], Hz.
+    pub fn measured_beat_hz(&self, range_m: f64, range_rate_m_s: f64) -> (f64, f64) {
+        let fd = self.doppler_hz(range_rate_m_s);
+        let up = self.range_frequency_hz(range_m) - fd;
+        let down = self.range_frequency_hz(self.ramp_range_m(range_m, range_rate_m_s, 1)) + fd;
+        (up, down)
+    }
+
+    /// Range bias of the pair from inter-chirp motion, R̂ − R = v_r·(down-ramp delay)/2, m
+    /// (v_rT_c/2 sequential, 0 simultaneous).
+    pub fn inter_chirp_range_bias_m(&self, range_rate_m_s: f64) -> f64 {
+        0.5 * range_rate_m_s * self.down_ramp_delay_s
     }
 
     /// Sampling window T_w = N/f_s, s.
@@ -167,6 +213,28 @@ mod tests {
         // Coupling: the up ramp alone reads R + v·c/(κλ).
         let apparent = plan.single_chirp_range_m(up);
         assert!((apparent - (r + v * C / (kappa * lambda))).abs() < 1e-6);
+    }
+
+    #[test]
+    fn sequential_ramps_bias_the_range_by_half_the_inter_chirp_motion() {
+        let mut cfg = FmcwConfig::default();
+        let (r, v) = (50.0, -30.0);
+        let tc = cfg.chirp_time_s;
+        let lambda = cfg.wavelength_nm * 1e-9;
+        let seq = ChirpPlan::new(&cfg);
+        let (up, down) = seq.measured_beat_hz(r, v);
+        let (r2, v2) = seq.invert(up, down);
+        assert!((r2 - (r + v * tc / 2.0)).abs() < 1e-9, "{r2}");
+        let rate_scale = 1.0 - cfg.bandwidth_hz * lambda / (2.0 * C);
+        assert!((v2 - v * rate_scale).abs() < 1e-9, "{v2}");
+        assert_eq!(seq.beam_dwell_s(), 2.0 * tc);
+        cfg.chirp_mode = ChirpMode::Simultaneous;
+        let sim = ChirpPlan::new(&cfg);
+        let (up, down) = sim.measured_beat_hz(r, v);
+        let (r3, v3) = sim.invert(up, down);
+        assert!((r3 - r).abs() < 1e-9 && (v3 - v).abs() < 1e-9);
+        assert_eq!(sim.beam_dwell_s(), tc);
+        assert_eq!(sim.inter_chirp_range_bias_m(v), 0.0);
     }
 
     #[test]
