@@ -736,6 +736,18 @@ const MIN_CENTROID_POINTS: usize = 3;
 /// of the `lidar.extrinsic_error` catalogue entry).
 const CENTROID_GATE_DEG: f64 = 5.0;
 
+/// The association gate of a target's centroid (sensor frame).
+struct CentroidGate {
+    /// Azimuth of the box centre, rad.
+    azimuth_rad: f64,
+    /// Half-width of the box (inflated by 0.2 m) seen from the sensor, rad.
+    half_width_rad: f64,
+    /// Range span of the inflated box, m.
+    range_m: (f64, f64),
+    /// Height span (global z) of the inflated box, m.
+    z_m: (f64, f64),
+}
+
 /// LiDAR [`quantity::AZIMUTH_DEG`] rows per target and frame: the azimuth (sensor frame, deg) of
 /// the centroid direction Σ u_i / |Σ u_i| of the target's points on each side. A sensor turned by
 /// ψ from its nominal mounting reports every point ψ off, so the centroid moves by −ψ while the
@@ -755,35 +767,33 @@ fn centroid_azimuths(
     time_s: f64,
     out: &mut Paired,
 ) {
-    // Per target: (azimuth, half-width, range span, height span), the angles in rad.
-    let gates: Vec<(f64, f64, (f64, f64), (f64, f64))> = geom
+    let gates: Vec<CentroidGate> = geom
         .targets
         .iter()
         .map(|t| {
             let half_diag = 0.5 * t.dims.x.hypot(t.dims.y) + 0.2;
-            let half_w = (half_diag / t.range_m.max(0.1)).min(1.0).asin();
             let zc = t.pose.position.z;
             let hz = 0.5 * t.dims.z + 0.2;
-            (
-                t.azimuth_deg.to_radians(),
-                half_w,
-                (t.range_m - half_diag, t.range_m + half_diag),
-                (zc - hz, zc + hz),
-            )
+            CentroidGate {
+                azimuth_rad: t.azimuth_deg.to_radians(),
+                half_width_rad: (half_diag / t.range_m.max(0.1)).min(1.0).asin(),
+                range_m: (t.range_m - half_diag, t.range_m + half_diag),
+                z_m: (zc - hz, zc + hz),
+            }
         })
         .collect();
     let gate = CENTROID_GATE_DEG.to_radians();
     let wrap = |a: f64| (a + 3.0 * PI).rem_euclid(2.0 * PI) - PI;
     let centroid = |dets: &[osi3::LidarDetection], i: usize| {
-        let (az0, half_w, (r0, r1), (z0, z1)) = gates[i];
+        let g = &gates[i];
         let (mut sum, mut n) = (DVec3::ZERO, 0usize);
         for p in dets.iter().filter_map(|d| d.position.as_ref()) {
             let c = osiris_models::frames::Spherical::from_osi(p).to_cartesian();
             let (r, z) = (c.length(), geom.sensor.point_to_global(c).z);
-            if r < r0 || r > r1 || z < z0 || z > z1 || r == 0.0 {
+            if r < g.range_m.0 || r > g.range_m.1 || z < g.z_m.0 || z > g.z_m.1 || r == 0.0 {
                 continue;
             }
-            if wrap(c.y.atan2(c.x) - az0).abs() <= half_w + gate {
+            if wrap(c.y.atan2(c.x) - g.azimuth_rad).abs() <= g.half_width_rad + gate {
                 sum += c / r;
                 n += 1;
             }
@@ -791,16 +801,14 @@ fn centroid_azimuths(
         (n >= MIN_CENTROID_POINTS).then(|| sum.y.atan2(sum.x).to_degrees())
     };
     for (i, g) in geom.targets.iter().enumerate() {
-        let (az_i, hw_i, (r0, r1), _) = gates[i];
-        let crowded = gates
-            .iter()
-            .enumerate()
-            .any(|(j, &(az_j, hw_j, (q0, q1), _))| {
-                j != i
-                    && q0 <= r1
-                    && q1 >= r0
-                    && wrap(az_j - az_i).abs() <= hw_i + hw_j + 2.0 * gate
-            });
+        let gi = &gates[i];
+        let crowded = gates.iter().enumerate().any(|(j, gj)| {
+            j != i
+                && gj.range_m.0 <= gi.range_m.1
+                && gj.range_m.1 >= gi.range_m.0
+                && wrap(gj.azimuth_rad - gi.azimuth_rad).abs()
+                    <= gi.half_width_rad + gj.half_width_rad + 2.0 * gate
+        });
         if crowded {
             continue;
         }
