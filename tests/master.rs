@@ -1065,3 +1065,64 @@ fn a_sensor_faster_than_the_frames_steps_at_every_frame_with_contiguous_steps() 
         );
     }
 }
+
+/// The radar FMU with `"radar": {"preset": "imaging"}` in its `resources/config.json` runs the
+/// 4D imaging radar (12 Tx × 16 Rx = 192 virtual channels, 512 × 64 cube), and with
+/// `radar.road_clutter` (on by default) the road's own returns are among its peaks (peaks of no
+/// object); with the effect switched off in the same file there are none.
+#[test]
+fn imaging_preset_and_road_clutter_run_in_the_radar_fmu_by_config() {
+    let run = |clutter: bool| {
+        let dir = assemble_fmu_dir("radar");
+        let path = dir.path().join("resources/config.json");
+        let mut cfg: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        cfg["radar"] = serde_json::json!({ "preset": "imaging" });
+        cfg["effects"]["radar.road_clutter"] = serde_json::json!(clutter);
+        std::fs::write(&path, serde_json::to_string_pretty(&cfg).unwrap()).unwrap();
+        let fmu = Fmu::from_dir(dir.path()).unwrap();
+        let opts = InstanceOptions {
+            stderr_level: None,
+            ..InstanceOptions::default()
+        };
+        let mut s = OsmpSensor::instantiate(&fmu, "radar_imaging", opts).unwrap();
+        s.initialize(0.0, &[]).unwrap();
+        let h = s.default_step_size().unwrap_or(0.05);
+        let sv = sensor_view_with_car(0.0).encode_to_vec();
+        let out = s.step(&sv, 0.0, h).unwrap();
+        let pd = osiris_proto::perception::PerceptionData::decode(
+            out.perception.as_deref().expect("PerceptionData"),
+        )
+        .unwrap();
+        let radar = pd.radar.expect("radar perception");
+        let w = radar.waveform.expect("waveform");
+        assert_eq!(
+            (w.virtual_channels, w.samples_per_chirp, w.chirps_per_frame),
+            (Some(192), Some(512), Some(64)),
+            "{w:?}"
+        );
+        let on_car = radar
+            .peak
+            .iter()
+            .filter(|p| p.object_id.and_then(|i| i.value) == Some(2))
+            .count();
+        let road = radar
+            .peak
+            .iter()
+            .filter(|p| {
+                p.object_id
+                    .and_then(|i| i.value)
+                    .is_none_or(|v| v == u64::MAX)
+            })
+            .count();
+        (on_car, road)
+    };
+    let (car_on, road_on) = run(true);
+    let (car_off, road_off) = run(false);
+    assert!(car_on > 0 && car_off > 0, "{car_on} / {car_off}");
+    assert!(
+        road_on > 0,
+        "no road clutter peak with radar.road_clutter on"
+    );
+    assert_eq!(road_off, 0, "road peaks with radar.road_clutter off");
+}
