@@ -252,6 +252,8 @@ pub struct RadarChain {
     pub(super) col_out: Vec<f64>,
     pub(super) col_guard: Vec<f64>,
     pub(super) hits: Vec<(usize, usize)>,
+    /// CFAR hit per range-Doppler cell (`n · nc + d`; the per-angle range grouping).
+    pub(super) hit_map: Vec<bool>,
     pub(super) os_scratch: Vec<f32>,
     timings_s: [f64; 4],
     pub(super) dets: Vec<[Option<ChainDetection>; MAX_ANGLE_PEAKS]>,
@@ -578,6 +580,7 @@ impl RadarChain {
             col_out: vec![0.0; (ns + 1) * nc],
             col_guard: vec![0.0; (ns + 1) * nc],
             hits: Vec::new(),
+            hit_map: Vec::new(),
             os_scratch: Vec::new(),
             timings_s: [0.0; 4],
             dets: Vec::new(),

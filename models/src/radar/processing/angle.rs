@@ -110,7 +110,13 @@ impl RadarChain {
     /// P(|b|² > T σ²) = e^{−T}; `P_FA` of the CFAR), (c) lies at least one angular resolution
     /// cell from every other component (main-lobe half width: 2/N_az in sin-space for the
     /// rectangular window, 4/N_az for Hann, N_az the horizontal aperture in λ/2); otherwise the
-    /// weakest component is dropped and the rest refined again. Subtracting the fitted components
+    /// failing component is dropped (the weakest below (a) or (b), else the weaker of the closest
+    /// pair) and the rest refined again. Candidates are the strongest local maxima of the
+    /// residual spectrum at least one resolution cell from every component, and the refinement
+    /// keeps components that far apart: on an extended target (a car's side, a continuum of
+    /// scatterers) the residual peaks next to the components and a free fit pulls them
+    /// together; dropping the weakest of the whole set then removed resolved components too (a
+    /// car at 50 m kept one angle per cell of the four the fit found). Subtracting the fitted components
     /// removes their window sidelobes, so sidelobes never become detections (the rectangular
     /// window's −13 dB sidelobes lie within the default 15 dB dynamic range and 1.5 cells from
     /// the main lobe: a plain local-maximum search would report them).
@@ -161,7 +167,7 @@ impl RadarChain {
         let maxp = self.proc.max_angle_peaks_per_cell.clamp(1, MAX_ANGLE_PEAKS);
         let mut comps = [AngleComp::default(); MAX_ANGLE_PEAKS];
         b.d.copy_from_slice(&b.x);
-        comps[0] = self.fit_component(b, 0, None);
+        comps[0] = self.fit_component(b, 0, None, &[]);
         if snr_db_of(comps[0].beam) < self.proc.min_snr_db {
             return res;
         }
@@ -174,11 +180,11 @@ impl RadarChain {
         while count < maxp {
             // Residual after all components; its strongest peak is the candidate.
             self.residual(b, &comps[..count], usize::MAX);
-            let cand = self.fit_component(b, count, None);
+            let cand = self.fit_component(b, count, None, &comps[..count]);
             let strongest = comps[..count].iter().map(|c| c.beam).fold(0.0, f64::max);
             let crowded = comps[..count]
                 .iter()
-                .any(|c| (c.sy - cand.sy).abs() < 0.5 * self.angle_res_sin);
+                .any(|c| (c.sy - cand.sy).abs() < self.angle_res_sin);
             if crowded || cand.beam < dyn_range * strongest || cand.beam < min_ratio * noise_beam {
                 break;
             }
@@ -188,7 +194,7 @@ impl RadarChain {
             for _ in 0..RELAX_SWEEPS {
                 for j in 0..count {
                     self.residual(b, &comps[..count], j);
-                    comps[j] = self.fit_component(b, j, Some(comps[j].sy));
+                    comps[j] = self.fit_component(b, j, Some(comps[j].sy), &[]);
                 }
             }
         }
@@ -196,20 +202,19 @@ impl RadarChain {
         // weakest component and is refined again.
         while count > 1 {
             self.refine_jointly(b, &mut comps[..count]);
-            if self.components_ok(&comps[..count], dyn_range, min_ratio * noise_beam) {
+            let Some(drop) =
+                self.failing_component(&comps[..count], dyn_range, min_ratio * noise_beam)
+            else {
                 break;
-            }
-            let weakest = (0..count)
-                .min_by(|&i, &l| comps[i].beam.total_cmp(&comps[l].beam))
-                .unwrap_or(0);
-            comps.copy_within(weakest + 1..count, weakest);
+            };
+            comps.copy_within(drop + 1..count, drop);
             count -= 1;
             for j in 0..count {
                 self.steering(comps[j].sy, comps[j].sz, b, j);
             }
             if count == 1 {
                 self.residual(b, &comps[..1], 0);
-                comps[0] = self.fit_component(b, 0, Some(comps[0].sy));
+                comps[0] = self.fit_component(b, 0, Some(comps[0].sy), &[]);
             }
         }
         let comps = &mut comps[..count];
@@ -222,6 +227,18 @@ impl RadarChain {
             let snr_db = snr_db_of(c.beam);
             if snr_db < self.proc.min_snr_db {
                 continue;
+            }
+            // Per-angle peak grouping: the range main lobe of a centre in the next cell.
+            if self.proc.peak_grouping && self.proc.peak_grouping_per_angle {
+                let own = self.beam_in_cell(n, d, v, c.sy, c.sz);
+                let hit = |m: usize| self.hit_map[m * nc + d];
+                if (n > 0 && hit(n - 1) && self.beam_in_cell(n - 1, d, v, c.sy, c.sz) >= own)
+                    || (n + 1 < ns
+                        && hit(n + 1)
+                        && self.beam_in_cell(n + 1, d, v, c.sy, c.sz) > own)
+                {
+                    continue;
+                }
             }
             // Sines folded into the array's unambiguous interval (sparse arrays).
             let sz = principal(c.sz, self.sz_period);
@@ -264,6 +281,26 @@ impl RadarChain {
             }
             b.x[k] = Complex64::new(x.re as f64, x.im as f64);
         }
+    }
+
+    /// Windowed beam power `|Σ_k w_k x_k e^{jπ(y_k s_y + z_k s_z)}|²` of cell (`n`, `d`) towards
+    /// the sines (`sy`, `sz`), the Tx slots compensated for range rate `v` as in
+    /// [`Self::load_cell`] (the per-angle range grouping,
+    /// `ProcessingConfig::peak_grouping_per_angle`).
+    fn beam_in_cell(&self, n: usize, d: usize, v: f64, sy: f64, sz: f64) -> f64 {
+        let (nk, nc) = (self.nk, self.nc);
+        let tdm = self.tdm && self.proc.tdm_doppler_compensation;
+        let mut beam = Complex64::default();
+        for (k, (p, w)) in self.virt.iter().zip(&self.angle_win).enumerate() {
+            let x = self.dop[(n * nk + k) * nc + d];
+            let mut ph = std::f64::consts::PI * (p[0] as f64 * sy + p[1] as f64 * sz);
+            if tdm {
+                let t = k / self.nrx;
+                ph -= 4.0 * std::f64::consts::PI * v * t as f64 * self.t_chirp_s / self.lambda_m;
+            }
+            beam += Complex64::new(x.re as f64, x.im as f64) * Complex64::from_polar(*w as f64, ph);
+        }
+        beam.norm_sqr()
     }
 
     /// TDM-MIMO Doppler ambiguity (`ProcessingConfig::velocity_disambiguation`): the range rate
@@ -443,13 +480,15 @@ impl RadarChain {
                     self.steering(sy, comps[j].sz, b, j);
                 }
                 // Components may not merge (ill-conditioned pairs of nearly equal steering
-                // vectors with large opposite amplitudes): keep them half a cell apart.
+                // vectors with large opposite amplitudes): keep them one resolution cell apart,
+                // the separation the acceptance asks (on an extended target a free fit pulls
+                // components together, and the acceptance would then drop resolved ones).
                 let mut apart = true;
                 for i in 0..kc {
                     for l in i + 1..kc {
                         let si = comps[i].sy + (scale * step[i]).clamp(-max_step, max_step);
                         let sl = comps[l].sy + (scale * step[l]).clamp(-max_step, max_step);
-                        apart &= (si - sl).abs() >= 0.5 * self.angle_res_sin;
+                        apart &= (si - sl).abs() >= self.angle_res_sin;
                     }
                 }
                 if apart && self.joint_cost(b, comps, None, &mut amps) < j0 {
@@ -525,7 +564,17 @@ impl RadarChain {
     /// the windowed aperture projected onto the horizontal axis (the elevation-0 beam; rows
     /// sharing their phase centre keep it unbiased), parabolic interpolation; elevation from the
     /// matched sub-apertures; least-squares amplitude. Steering vector into slot `j`.
-    fn fit_component(&self, b: &mut AngleBufs, j: usize, near: Option<f64>) -> AngleComp {
+    ///
+    /// `avoid`: the components found so far; the candidate is then the strongest local maximum
+    /// of the spectrum at least one resolution cell from each of them (the residual of an
+    /// extended target, a continuum the components model only in part, peaks next to them).
+    fn fit_component(
+        &self,
+        b: &mut AngleBufs,
+        j: usize,
+        near: Option<f64>,
+        avoid: &[AngleComp],
+    ) -> AngleComp {
         let az_len = self.az_len;
         b.line.fill(C32::default());
         for ((dk, p), w) in b.d.iter().zip(&self.virt).zip(&self.angle_win) {
@@ -540,6 +589,14 @@ impl RadarChain {
             let q0 = (-s0 * az_len as f64 / 2.0).rem_euclid(az_len as f64);
             (q0, 0.25 * self.angle_res_sin * az_len as f64)
         });
+        let sine_of = |i: usize| {
+            let signed = if i >= az_len / 2 {
+                i as f64 - az_len as f64
+            } else {
+                i as f64
+            };
+            -2.0 * signed / az_len as f64
+        };
         for (i, v) in b.line.iter().enumerate() {
             if let Some((q0, half)) = window {
                 let dq = (i as f64 - q0).rem_euclid(az_len as f64);
@@ -548,6 +605,15 @@ impl RadarChain {
                 }
             }
             let m = v.norm_sqr();
+            if !avoid.is_empty() {
+                let s = sine_of(i);
+                if avoid.iter().any(|c| (c.sy - s).abs() < self.angle_res_sin)
+                    || m < b.line[(i + az_len - 1) % az_len].norm_sqr()
+                    || m < b.line[(i + 1) % az_len].norm_sqr()
+                {
+                    continue;
+                }
+            }
             if m > best {
                 best = m;
                 qy = i;
@@ -628,20 +694,36 @@ impl RadarChain {
     }
 
     /// Acceptance of a set of components: every one but the strongest within the dynamic range
-    /// of the strongest and above `min_beam`; no two closer than the angular resolution.
-    fn components_ok(&self, comps: &[AngleComp], dyn_range: f64, min_beam: f64) -> bool {
+    /// of the strongest and above `min_beam`; no two closer than the angular resolution. Returns
+    /// the component to drop when the set fails: the weakest of those below the dynamic range or
+    /// `min_beam`, else the weaker of the closest pair (a pair of unresolved components must not
+    /// cost the set its resolved ones: dropping the weakest of the whole set would).
+    fn failing_component(
+        &self,
+        comps: &[AngleComp],
+        dyn_range: f64,
+        min_beam: f64,
+    ) -> Option<usize> {
         let strongest = comps.iter().map(|c| c.beam).fold(0.0, f64::max);
+        let weak = (0..comps.len())
+            .filter(|&i| {
+                let c = &comps[i];
+                c.beam < strongest && (c.beam < dyn_range * strongest || c.beam < min_beam)
+            })
+            .min_by(|&i, &l| comps[i].beam.total_cmp(&comps[l].beam));
+        if weak.is_some() {
+            return weak;
+        }
+        let mut closest: Option<(f64, usize)> = None;
         for (i, c) in comps.iter().enumerate() {
-            if c.beam < strongest && (c.beam < dyn_range * strongest || c.beam < min_beam) {
-                return false;
-            }
-            for o in &comps[i + 1..] {
-                if (c.sy - o.sy).abs() < self.angle_res_sin {
-                    return false;
+            for (l, o) in comps.iter().enumerate().skip(i + 1) {
+                let sep = (c.sy - o.sy).abs();
+                if sep < self.angle_res_sin && closest.is_none_or(|(s, _)| sep < s) {
+                    closest = Some((sep, if c.beam < o.beam { i } else { l }));
                 }
             }
         }
-        true
+        closest.map(|(_, i)| i)
     }
 
     /// Object of a detection at range bin `rb`, signed Doppler bin `db`, azimuth sine `sy`: among

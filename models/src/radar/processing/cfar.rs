@@ -52,9 +52,13 @@ impl RadarChain {
             let hi = (n + r).min(ns - 1);
             col[(hi + 1) * nc + d] - col[lo * nc + d]
         };
+        // Per-angle grouping: local maxima along Doppler here, in range per direction after the
+        // angle fit (`ProcessingConfig::peak_grouping_per_angle`).
+        let per_angle = self.proc.peak_grouping_per_angle;
         let local_max = |n: usize, d: usize| {
             let v = p[n * nc + d];
-            for dn in -1isize..=1 {
+            let rows = if per_angle { 0isize } else { 1 };
+            for dn in -rows..=rows {
                 let nn = n as isize + dn;
                 if nn < 0 || nn >= ns as isize {
                     continue;
@@ -156,6 +160,13 @@ impl RadarChain {
                 if x > threshold {
                     self.hits.push((n, d));
                 }
+            }
+        }
+        if per_angle {
+            self.hit_map.clear();
+            self.hit_map.resize(ns * nc, false);
+            for &(n, d) in &self.hits {
+                self.hit_map[n * nc + d] = true;
             }
         }
     }

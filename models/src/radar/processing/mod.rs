@@ -149,6 +149,16 @@ pub struct ProcessingConfig {
     /// Keep only CFAR cells that are local maxima of the map (8 neighbours); `false` reports every
     /// threshold crossing.
     pub peak_grouping: bool,
+    /// With `peak_grouping`: group in range per direction instead of on the channel-summed map.
+    /// The CFAR keeps the cells that are local maxima along Doppler only; after the angle fit, a
+    /// detection is kept when the beam power in its direction, `|Σ_k w_k x_k e_k*|²`, is at least
+    /// that of the range cells on either side (same Doppler bin, same direction). On the summed
+    /// map a car's scattering centres in adjacent range cells at different azimuths are one
+    /// maximum (the strongest hides the rest: a car at 50 m gave 1–2 cells); an array that
+    /// resolves them in angle keeps them, while the range main lobe of each one (Hann: ±1 cell)
+    /// still gives a single detection. The cost is the angle fit of every range cell of an
+    /// extended target instead of its local maxima.
+    pub peak_grouping_per_angle: bool,
     /// Azimuth angle FFT length (zero-padded; ≥ the horizontal aperture in λ/2).
     pub angle_fft_azimuth: usize,
     /// Elevation search resolution: with three or more occupied rows the elevation is the maximum
@@ -196,6 +206,7 @@ impl Default for ProcessingConfig {
             angle_window: Window::Rectangular,
             cfar: CfarConfig::default(),
             peak_grouping: true,
+            peak_grouping_per_angle: false,
             angle_fft_azimuth: 64,
             angle_fft_elevation: 16,
             tdm_doppler_compensation: true,
