@@ -112,11 +112,11 @@ impl RadarChain {
     /// rectangular window, 4/N_az for Hann, N_az the horizontal aperture in λ/2); otherwise the
     /// failing component is dropped (the weakest below (a) or (b), else the weaker of the closest
     /// pair) and the rest refined again. Candidates are the strongest local maxima of the
-    /// residual spectrum at least one resolution cell from every component, and the refinement
-    /// keeps components that far apart: on an extended target (a car's side, a continuum of
-    /// scatterers) the residual peaks next to the components and a free fit pulls them
-    /// together; dropping the weakest of the whole set then removed resolved components too (a
-    /// car at 50 m kept one angle per cell of the four the fit found). Subtracting the fitted components
+    /// residual spectrum at least one resolution cell from every component (the refinement keeps
+    /// them half a cell apart): on an extended target (a car's side, a continuum of scatterers)
+    /// the residual peaks next to the components and a free fit pulls them together; dropping
+    /// the weakest of the whole set then removed resolved components too (a car at 50 m kept one
+    /// angle per cell of the four the fit found). Subtracting the fitted components
     /// removes their window sidelobes, so sidelobes never become detections (the rectangular
     /// window's −13 dB sidelobes lie within the default 15 dB dynamic range and 1.5 cells from
     /// the main lobe: a plain local-maximum search would report them).
@@ -480,15 +480,17 @@ impl RadarChain {
                     self.steering(sy, comps[j].sz, b, j);
                 }
                 // Components may not merge (ill-conditioned pairs of nearly equal steering
-                // vectors with large opposite amplitudes): keep them one resolution cell apart,
-                // the separation the acceptance asks (on an extended target a free fit pulls
-                // components together, and the acceptance would then drop resolved ones).
+                // vectors with large opposite amplitudes): keep them half a cell apart. (A full
+                // cell, the acceptance's separation, stops anti-phase neighbours 1.2 cells apart
+                // from converging: their one-at-a-time estimates start closer than a cell;
+                // radar_baseband's three-targets test. On an extended target the acceptance then
+                // drops the weaker of a pair that came too close, not the weakest of all.)
                 let mut apart = true;
                 for i in 0..kc {
                     for l in i + 1..kc {
                         let si = comps[i].sy + (scale * step[i]).clamp(-max_step, max_step);
                         let sl = comps[l].sy + (scale * step[l]).clamp(-max_step, max_step);
-                        apart &= (si - sl).abs() >= self.angle_res_sin;
+                        apart &= (si - sl).abs() >= 0.5 * self.angle_res_sin;
                     }
                 }
                 if apart && self.joint_cost(b, comps, None, &mut amps) < j0 {
