@@ -179,10 +179,9 @@ fn print(label: &str, n: &GhostCounts) {
 
 #[test]
 fn ghost_statistics_on_a_guardrail_highway() {
-    // Road clutter off for (a)–(c): a perception peak names its strongest contribution, and in
-    // the cells where road clutter outshines a weak mirror path the ghost is counted as the
-    // road's (measured with clutter on: 6 behind the rail with multipath, 2 without); (d) runs
-    // the default radar with clutter.
+    // Road clutter off for (a)–(c), to count the multipath ghosts alone: a perception peak names
+    // its strongest contribution, and where road clutter outshines a weak mirror path the ghost
+    // would count as the road's; (d) runs the default radar with clutter.
     let on = drive(true, true, false);
     print("multipath on, rejection on", &on);
     let off = drive(false, true, false);
