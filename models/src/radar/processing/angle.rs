@@ -86,6 +86,8 @@ impl RadarChain {
             r: vec![Complex64::default(); self.nk],
             r0: vec![Complex64::default(); self.nk],
             jac: vec![Complex64::default(); MAX_ANGLE_PEAKS * self.nk],
+            pow_y: Vec::with_capacity(self.nk + 1),
+            pow_z: Vec::with_capacity(self.nk + 1),
         }
     }
 
@@ -365,30 +367,39 @@ impl RadarChain {
     ) -> f64 {
         let nk = self.nk;
         let kc = comps.len();
+        let AngleBufs {
+            tmp,
+            steer,
+            x,
+            r: resid,
+            pow_y,
+            pow_z,
+            ..
+        } = b;
         if let Some((j, sy)) = replace {
-            for (e, p) in b.tmp.iter_mut().zip(&self.virt) {
-                let ph = -std::f64::consts::PI * (p[0] as f64 * sy + p[1] as f64 * comps[j].sz);
-                *e = Complex64::from_polar(1.0, ph);
-            }
+            steering_vector(&self.virt, sy, comps[j].sz, pow_y, pow_z, tmp);
         }
-        let col = |b: &AngleBufs, i: usize, k: usize| match replace {
-            Some((j, _)) if j == i => b.tmp[k],
-            _ => b.steer[i * nk + k],
-        };
+        let (tmp, steer): (&[Complex64], &[Complex64]) = (tmp, steer);
+        let mut cols: [&[Complex64]; MAX_ANGLE_PEAKS] = [&[]; MAX_ANGLE_PEAKS];
+        for (i, c) in cols.iter_mut().enumerate().take(kc) {
+            *c = match replace {
+                Some((j, _)) if j == i => &tmp[..nk],
+                _ => &steer[i * nk..(i + 1) * nk],
+            };
+        }
+        // The Gram matrix EᴴE is Hermitian: its upper triangle, mirrored.
         let mut g = [[Complex64::default(); MAX_ANGLE_PEAKS + 1]; MAX_ANGLE_PEAKS];
         for i in 0..kc {
-            for l in 0..kc {
-                let mut s = Complex64::default();
-                for k in 0..nk {
-                    s += col(b, i, k).conj() * col(b, l, k);
-                }
+            for l in i..kc {
+                let s: Complex64 = cols[i].iter().zip(cols[l]).map(|(a, c)| a.conj() * c).sum();
                 g[i][l] = s;
+                g[l][i] = s.conj();
             }
-            let mut r = Complex64::default();
-            for k in 0..nk {
-                r += col(b, i, k).conj() * b.x[k];
-            }
-            g[i][kc] = r;
+            g[i][kc] = cols[i]
+                .iter()
+                .zip(x.iter())
+                .map(|(a, v)| a.conj() * v)
+                .sum();
         }
         // Gaussian elimination with partial pivoting on the augmented K × (K+1) system.
         for c in 0..kc {
@@ -418,12 +429,12 @@ impl RadarChain {
         // ‖x − E â‖² = ‖x‖² − Re(rᴴ â) at the LS solution; evaluated directly for robustness.
         let mut j = 0.0;
         for k in 0..nk {
-            let mut m = b.x[k];
-            for (i, a) in amps.iter().enumerate().take(kc) {
-                m -= a * col(b, i, k);
+            let mut m = x[k];
+            for (a, c) in amps.iter().zip(&cols).take(kc) {
+                m -= a * c[k];
             }
             j += m.norm_sqr();
-            b.r[k] = m;
+            resid[k] = m;
         }
         j
     }
@@ -556,10 +567,20 @@ impl RadarChain {
     /// Steering vector `e^{−jπ(y s_y + z s_z)}` of component slot `j` into `b.steer`.
     fn steering(&self, sy: f64, sz: f64, b: &mut AngleBufs, j: usize) {
         let nk = self.nk;
-        for (e, p) in b.steer[j * nk..(j + 1) * nk].iter_mut().zip(&self.virt) {
-            let ph = -std::f64::consts::PI * (p[0] as f64 * sy + p[1] as f64 * sz);
-            *e = Complex64::from_polar(1.0, ph);
-        }
+        let AngleBufs {
+            steer,
+            pow_y,
+            pow_z,
+            ..
+        } = b;
+        steering_vector(
+            &self.virt,
+            sy,
+            sz,
+            pow_y,
+            pow_z,
+            &mut steer[j * nk..(j + 1) * nk],
+        );
     }
 
     /// One component from `b.d`: azimuth from the strongest peak of the zero-padded spectrum of
@@ -779,6 +800,46 @@ struct AngleBufs {
     r: Vec<Complex64>,
     r0: Vec<Complex64>,
     jac: Vec<Complex64>,
+    /// Powers of the per-axis phasors of [`steering_vector`] (offset by the smallest coordinate).
+    pow_y: Vec<Complex64>,
+    pow_z: Vec<Complex64>,
+}
+
+/// The steering vector e^{−jπ(y_k s_y + z_k s_z)} of the virtual elements (y_k, z_k) (integer
+/// λ/2 units) into `out`: the phasors e^{−jπ s_y}, e^{−jπ s_z} raised to each coordinate by
+/// recurrence (`pow_y`, `pow_z`: one per coordinate from the smallest to the largest), so a vector
+/// costs four `sincos` instead of one per element (relative rounding ≲ 1e-13 over the aperture).
+fn steering_vector(
+    virt: &[[i32; 2]],
+    sy: f64,
+    sz: f64,
+    pow_y: &mut Vec<Complex64>,
+    pow_z: &mut Vec<Complex64>,
+    out: &mut [Complex64],
+) {
+    let span = |axis: usize| {
+        virt.iter().fold((i32::MAX, i32::MIN), |(lo, hi), p| {
+            (lo.min(p[axis]), hi.max(p[axis]))
+        })
+    };
+    let powers = |s: f64, (lo, hi): (i32, i32), buf: &mut Vec<Complex64>| {
+        buf.clear();
+        if lo > hi {
+            return;
+        }
+        let step = Complex64::from_polar(1.0, -std::f64::consts::PI * s);
+        let mut z = Complex64::from_polar(1.0, -std::f64::consts::PI * s * lo as f64);
+        for _ in lo..=hi {
+            buf.push(z);
+            z *= step;
+        }
+    };
+    let (ys, zs) = (span(0), span(1));
+    powers(sy, ys, pow_y);
+    powers(sz, zs, pow_z);
+    for (e, p) in out.iter_mut().zip(virt) {
+        *e = pow_y[(p[0] - ys.0) as usize] * pow_z[(p[1] - zs.0) as usize];
+    }
 }
 
 /// Solve the `n × n` real system augmented in column `n` (partial pivoting); false if singular.
