@@ -24,7 +24,7 @@ use osiris_models::environment::weather::Weather;
 use osiris_models::radar::{PathReturn, RadarConfig, RadarSensor};
 use osiris_models::sensor::{ModelMode, Mounting};
 use osiris_models::{SensorConfig, SensorKind, SensorModel, StepInput, StepOutput};
-use osiris_proto::{id, osi3, timestamp_from_seconds};
+use osiris_proto::{id, osi3};
 
 const C0: f64 = 299_792_458.0;
 const TARGET: u64 = 7;
@@ -40,18 +40,7 @@ fn trihedral(a: f64, r: f64, az: f64, h: f64, vel: [f64; 3]) -> osi3::MovingObje
     )
 }
 
-fn view(objects: Vec<osi3::MovingObject>) -> osi3::SensorView {
-    osi3::SensorView {
-        version: Some(osiris_proto::interface_version()),
-        timestamp: Some(timestamp_from_seconds(0.0)),
-        global_ground_truth: Some(osi3::GroundTruth {
-            timestamp: Some(timestamp_from_seconds(0.0)),
-            moving_object: objects,
-            ..Default::default()
-        }),
-        ..Default::default()
-    }
-}
+use common::view_of as view;
 
 /// Sensor at height `h` looking along +x; `effects` switched as given. Road clutter is off (these
 /// tests look at the paths of their targets; it has its own tests in `radar_clutter.rs`).

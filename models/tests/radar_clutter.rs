@@ -19,7 +19,7 @@ use osiris_models::radar::preset::RadarPreset;
 use osiris_models::radar::{RadarConfig, RadarSensor};
 use osiris_models::sensor::{ModelMode, Mounting};
 use osiris_models::{SensorConfig, SensorKind, StepInput};
-use osiris_proto::{INVALID_ID, osi3, timestamp_from_seconds};
+use osiris_proto::{INVALID_ID, osi3};
 
 const C0: f64 = 299_792_458.0;
 /// Sensor height above the road (the fallback plane at z = 0), m.
@@ -29,18 +29,7 @@ const CELL_M: f64 = 0.5;
 const CELL_DEG: f64 = 2.0;
 const MAX_RANGE_M: f64 = 40.0;
 
-fn view(objects: Vec<osi3::MovingObject>) -> osi3::SensorView {
-    osi3::SensorView {
-        version: Some(osiris_proto::interface_version()),
-        timestamp: Some(timestamp_from_seconds(0.0)),
-        global_ground_truth: Some(osi3::GroundTruth {
-            timestamp: Some(timestamp_from_seconds(0.0)),
-            moving_object: objects,
-            ..Default::default()
-        }),
-        ..Default::default()
-    }
-}
+use common::view_of as view;
 
 /// Default physical radar at `H_M`, isotropic 0 dBi antennas, gaseous absorption off, the clutter
 /// grid of the constants (no cap), `effects` as given.

@@ -12,23 +12,12 @@ use osiris_models::radar::RadarSensor;
 use osiris_models::radar::preset::RadarPreset;
 use osiris_models::sensor::{ModelMode, Mounting};
 use osiris_models::{SensorConfig, SensorKind, StepOutput};
-use osiris_proto::{osi3, timestamp_from_seconds};
+use osiris_proto::osi3;
 
 /// Sensor mounting height, m.
 const H_M: f64 = 1.5;
 
-fn view(objects: Vec<osi3::MovingObject>) -> osi3::SensorView {
-    osi3::SensorView {
-        version: Some(osiris_proto::interface_version()),
-        timestamp: Some(timestamp_from_seconds(0.0)),
-        global_ground_truth: Some(osi3::GroundTruth {
-            timestamp: Some(timestamp_from_seconds(0.0)),
-            moving_object: objects,
-            ..Default::default()
-        }),
-        ..Default::default()
-    }
-}
+use common::view_of as view;
 
 /// The imaging preset as the FMU gets it: a JSON configuration with `"radar": {"preset":
 /// "imaging"}` (and nothing else of the radar's), 120° × 30°, sensor at `H_M`, `effects` as given.

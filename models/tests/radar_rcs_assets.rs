@@ -28,7 +28,7 @@ use std::io::Write;
 use osiris_models::radar::RadarSensor;
 use osiris_models::sensor::{ModelMode, Mounting};
 use osiris_models::{SensorConfig, SensorKind};
-use osiris_proto::{osi3, timestamp_from_seconds};
+use osiris_proto::osi3;
 
 /// Sensor height, m.
 const H: f64 = 0.5;
@@ -45,18 +45,7 @@ fn radar() -> RadarSensor {
     RadarSensor::new(c).expect("radar")
 }
 
-fn view(objects: Vec<osi3::MovingObject>) -> osi3::SensorView {
-    osi3::SensorView {
-        version: Some(osiris_proto::interface_version()),
-        timestamp: Some(timestamp_from_seconds(0.0)),
-        global_ground_truth: Some(osi3::GroundTruth {
-            timestamp: Some(timestamp_from_seconds(0.0)),
-            moving_object: objects,
-            ..Default::default()
-        }),
-        ..Default::default()
-    }
-}
+use common::view_of as view;
 
 /// Reported detections (rcs dBm², distance m) of one frame.
 fn detections(sensor: &mut RadarSensor, v: &osi3::SensorView) -> Vec<(f64, f64)> {

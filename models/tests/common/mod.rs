@@ -191,3 +191,18 @@ pub fn radar_detections(out: &osiris_models::StepOutput) -> Vec<osi3::RadarDetec
         })
         .unwrap_or_default()
 }
+
+/// A SensorView at t = 0 whose ground truth holds only `objects` (no host, no lanes: the radar
+/// tests' scenes on the documented fallback ground plane).
+pub fn view_of(objects: Vec<osi3::MovingObject>) -> osi3::SensorView {
+    osi3::SensorView {
+        version: Some(osiris_proto::interface_version()),
+        timestamp: Some(osiris_proto::timestamp_from_seconds(0.0)),
+        global_ground_truth: Some(osi3::GroundTruth {
+            timestamp: Some(osiris_proto::timestamp_from_seconds(0.0)),
+            moving_object: objects,
+            ..Default::default()
+        }),
+        ..Default::default()
+    }
+}
