@@ -330,6 +330,9 @@ pub struct Written {
     pub model_trace: PathBuf,
     /// The hidden effect, as a short description (the answer key stays with the test).
     pub hidden: String,
+    /// The hidden effect's value in its catalogue parameter's unit, where it has one (radar yaw
+    /// misalignment: deg; radar clock offset: ms).
+    pub hidden_value: Option<f64>,
     pub frames: usize,
     pub dropped_frames: usize,
 }
@@ -983,6 +986,11 @@ sensor_data = "meas.osi"
         meta,
         model_trace: dir.join("model.osi"),
         hidden: case.name().into(),
+        hidden_value: match case {
+            RadarCase::YawMisalignment => Some(yaw_true.to_degrees()),
+            RadarCase::TimeOffset => Some(1e3 * clock_s),
+            _ => None,
+        },
         frames: frame as usize,
         dropped_frames: dropped,
     })
@@ -1452,6 +1460,7 @@ fn finish_board_campaign(
         meta,
         model_trace: dir.join("model.osi"),
         hidden: hidden.into(),
+        hidden_value: None,
         frames: frames as usize,
         dropped_frames: dropped,
     })
