@@ -287,7 +287,10 @@ fn lidar_null_is_consistent() {
 fn divp_lidar_missing_overlap_function_is_found() {
     let dir = tempfile::tempdir().unwrap();
     let spec = LidarTruth {
-        hidden: vec![LidarHidden::Overlap { r0_m: 3.0 }],
+        hidden: vec![LidarHidden::Overlap {
+            r_on_m: 1.5,
+            full_ratio: 3.0,
+        }],
         seed: 2,
         ..LidarTruth::default()
     };
@@ -297,8 +300,8 @@ fn divp_lidar_missing_overlap_function_is_found() {
         "{}",
         describe(&s)
     );
-    let r0 = param(&s, "lidar.overlap_function");
-    assert!((r0 - 3.0).abs() < 0.5, "R0 {r0}\n{}", describe(&s));
+    let r_on = param(&s, "lidar.overlap_function");
+    assert!((r_on - 1.5).abs() < 0.3, "R_on {r_on}\n{}", describe(&s));
 }
 
 #[test]

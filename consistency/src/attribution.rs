@@ -62,13 +62,14 @@ pub struct NoiseModel {
     pub inflation: f64,
 }
 
-/// Whether a quantity gets a fitted calibration offset (nuisance). The radar azimuth gets none: a
-/// constant azimuth offset is the sensor's yaw misalignment, a named effect
-/// (`radar.extrinsic_error`, physics.md §7.1), not a nuisance to absorb.
+/// Whether a quantity gets a fitted calibration offset (nuisance). Azimuth and elevation get none:
+/// a constant angle offset is the sensor's yaw or pitch misalignment, a named effect
+/// (`<sensor>.extrinsic_error`, physics.md §7.1), not a nuisance to absorb.
 pub fn has_offset(q: &str) -> bool {
     !matches!(
         q,
         quantity::AZIMUTH_DEG
+            | quantity::ELEVATION_DEG
             | quantity::POINTS_LOG_RATIO
             | quantity::GAP_POINTS
             | quantity::INTENSITY_SD_DB
@@ -129,7 +130,7 @@ pub fn aggregate(rows: &[Row], q: &str, campaign: &Campaign) -> (Vec<Obs>, Noise
         let gt = match q {
             quantity::POWER_DB => 40.0 / std::f64::consts::LN_10 * sig_r / range,
             quantity::RANGE_M => sig_r,
-            quantity::AZIMUTH_DEG => (sig_r / range).to_degrees(),
+            quantity::AZIMUTH_DEG | quantity::ELEVATION_DEG => (sig_r / range).to_degrees(),
             quantity::INTENSITY_DB => {
                 // Measured level = simulated level × the mean ratio.
                 let level = x[super::V_SIM] * 10f64.powf(r / 10.0);
@@ -411,9 +412,12 @@ impl Design<'_> {
                 break;
             }
         }
+        self.polish(w, effs, &mut params);
         let mut total = vec![0.0; n];
-        for s in &sigs {
-            for (t, v) in total.iter_mut().zip(s) {
+        let mut s = vec![0.0; n];
+        for (e, p) in effs.iter().zip(&params) {
+            self.sig(*e, p, &mut s);
+            for (t, v) in total.iter_mut().zip(&s) {
                 *t += v;
             }
         }
@@ -422,6 +426,117 @@ impl Design<'_> {
             params,
             chi2,
             offset,
+        }
+    }
+
+    /// Joint Levenberg–Marquardt refinement of every parameter after the coordinate sweeps
+    /// (Madsen, Nielsen & Tingleff, "Methods for non-linear least squares problems", 2004, §3.2):
+    /// coordinate descent crawls along the valley of correlated parameters (a yaw and a lateral
+    /// offset both shift the azimuth), a joint step follows it. Numeric Jacobian (central
+    /// differences) of the summed signature, the calibration offset profiled out (weighted centring
+    /// of the residuals and the Jacobian columns), steps clamped to the bounds; a step is taken only
+    /// when it lowers χ², so the result is never worse than the sweeps'.
+    fn polish(&self, w: &[f64], effs: &[&dyn EffectSignature], params: &mut [Vec<f64>]) {
+        let n = self.obs.len();
+        let idx: Vec<(usize, usize)> = effs
+            .iter()
+            .enumerate()
+            .flat_map(|(k, e)| (0..params[k].len().min(e.params().len())).map(move |pi| (k, pi)))
+            .collect();
+        let m = idx.len();
+        if m == 0 || n <= m {
+            return;
+        }
+        let bounds = |&(k, pi): &(usize, usize)| effs[k].params()[pi].bounds;
+        let total = |params: &[Vec<f64>], out: &mut Vec<f64>| {
+            out.iter_mut().for_each(|v| *v = 0.0);
+            let mut s = vec![0.0; n];
+            for (e, p) in effs.iter().zip(params) {
+                self.sig(*e, p, &mut s);
+                for (t, v) in out.iter_mut().zip(&s) {
+                    *t += v;
+                }
+            }
+        };
+        let wsum: f64 = w.iter().sum();
+        if wsum <= 0.0 {
+            return;
+        }
+        // Profiled (offset-free) version of a column: subtract its weighted mean.
+        let centre = |v: &mut [f64]| {
+            if self.offset {
+                let mean = v.iter().zip(w).map(|(a, b)| a * b).sum::<f64>() / wsum;
+                v.iter_mut().for_each(|x| *x -= mean);
+            }
+        };
+        let mut cur = vec![0.0; n];
+        total(params, &mut cur);
+        let mut chi2 = self.chi2(w, &cur).0;
+        let mut lambda = 1e-3;
+        let mut jac = vec![vec![0.0; n]; m];
+        let mut plus = vec![0.0; n];
+        let mut minus = vec![0.0; n];
+        for _ in 0..30 {
+            // Jacobian of the summed signature, one column per parameter.
+            for (j, id) in idx.iter().enumerate() {
+                let [lo, hi] = bounds(id);
+                let h = 1e-6 * (hi - lo).max(1e-12);
+                let v0 = params[id.0][id.1];
+                params[id.0][id.1] = (v0 + h).min(hi);
+                total(params, &mut plus);
+                params[id.0][id.1] = (v0 - h).max(lo);
+                total(params, &mut minus);
+                let span = (v0 + h).min(hi) - (v0 - h).max(lo);
+                params[id.0][id.1] = v0;
+                for ((c, a), b) in jac[j].iter_mut().zip(&plus).zip(&minus) {
+                    *c = (a - b) / span;
+                }
+                centre(&mut jac[j]);
+            }
+            let mut res: Vec<f64> = self.obs.iter().zip(&cur).map(|(o, s)| o.r - s).collect();
+            centre(&mut res);
+            // Normal equations JᵀWJ δ = JᵀW r.
+            let mut a = vec![vec![0.0; m]; m];
+            let mut g = vec![0.0; m];
+            for i in 0..m {
+                g[i] = (0..n).map(|t| w[t] * jac[i][t] * res[t]).sum();
+                for k in i..m {
+                    let v: f64 = (0..n).map(|t| w[t] * jac[i][t] * jac[k][t]).sum();
+                    a[i][k] = v;
+                    a[k][i] = v;
+                }
+            }
+            let mut improved = false;
+            for _ in 0..8 {
+                let mut damped = a.clone();
+                for (i, row) in damped.iter_mut().enumerate() {
+                    row[i] += lambda * a[i][i].max(1e-300);
+                }
+                let Some(delta) = solve_spd(damped, g.clone()) else {
+                    lambda *= 10.0;
+                    continue;
+                };
+                let mut trial: Vec<Vec<f64>> = params.to_vec();
+                for (id, d) in idx.iter().zip(&delta) {
+                    let [lo, hi] = bounds(id);
+                    trial[id.0][id.1] = (trial[id.0][id.1] + d).clamp(lo, hi);
+                }
+                total(&trial, &mut plus);
+                let c = self.chi2(w, &plus).0;
+                if c < chi2 {
+                    let gain = (chi2 - c) / chi2.max(1e-300);
+                    params.clone_from_slice(&trial);
+                    cur.clone_from(&plus);
+                    chi2 = c;
+                    lambda = (lambda * 0.3).max(1e-9);
+                    improved = gain > 1e-12;
+                    break;
+                }
+                lambda *= 10.0;
+            }
+            if !improved {
+                break;
+            }
         }
     }
 
@@ -642,6 +757,30 @@ pub struct QuantityAttribution {
     /// Residual of each station after the accepted effects: (range, azimuth, before, after, σ).
     #[serde(skip)]
     pub what_if: Vec<[f64; 5]>,
+}
+
+/// Solves the symmetric positive-definite system `a·x = b` (Cholesky, `a` m × m, m small);
+/// `None` when `a` is not positive definite.
+fn solve_spd(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
+    let m = b.len();
+    for j in 0..m {
+        let d = a[j][j] - (0..j).map(|k| a[j][k] * a[j][k]).sum::<f64>();
+        if d.is_nan() || d <= 0.0 || !d.is_finite() {
+            return None;
+        }
+        let d = d.sqrt();
+        a[j][j] = d;
+        for i in j + 1..m {
+            a[i][j] = (a[i][j] - (0..j).map(|k| a[i][k] * a[j][k]).sum::<f64>()) / d;
+        }
+    }
+    for i in 0..m {
+        b[i] = (b[i] - (0..i).map(|k| a[i][k] * b[k]).sum::<f64>()) / a[i][i];
+    }
+    for i in (0..m).rev() {
+        b[i] = (b[i] - (i + 1..m).map(|k| a[k][i] * b[k]).sum::<f64>()) / a[i][i];
+    }
+    Some(b)
 }
 
 fn bic(chi2: f64, k: usize, n: usize) -> f64 {

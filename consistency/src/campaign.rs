@@ -397,6 +397,8 @@ pub struct Tolerances {
     pub range_m: f64,
     pub radial_velocity_kmh: f64,
     pub azimuth_deg: f64,
+    /// Elevation, deg (camera detection campaigns; default: the azimuth's 1°, guessed).
+    pub elevation_deg: f64,
     pub power_db: f64,
     pub intensity_pct: f64,
     pub intensity_db: f64,
@@ -420,6 +422,7 @@ impl Default for Tolerances {
             range_m: 0.30,
             radial_velocity_kmh: 0.3,
             azimuth_deg: 1.0,
+            elevation_deg: 1.0,
             power_db: 5.0,
             intensity_pct: 10.0,
             intensity_db: 3.0,
@@ -479,6 +482,11 @@ pub struct Campaign {
     pub split: SplitMeta,
     pub sensor_view: PathBuf,
     pub sensor_data: PathBuf,
+    /// A camera campaign of detections (a `traces.sensor_data` trace of camera detections and no
+    /// RAW `[[frame]]`s): the directions of the detected objects' image boxes pair with the
+    /// ground truth like a radar's detections (`pairing.rs`), for the mounting and timing effects.
+    /// A camera campaign with RAW frames is radiometric (`camera.rs`).
+    pub camera_detections: bool,
     /// Unknown keys and other non-fatal remarks.
     pub warnings: Vec<String>,
 }
@@ -692,6 +700,7 @@ impl Campaign {
             range_m: t.f64_or("range_m", d.range_m)?,
             radial_velocity_kmh: t.f64_or("radial_velocity_kmh", d.radial_velocity_kmh)?,
             azimuth_deg: t.f64_or("azimuth_deg", d.azimuth_deg)?,
+            elevation_deg: t.f64_or("elevation_deg", d.elevation_deg)?,
             power_db: t.f64_or("power_db", d.power_db)?,
             intensity_pct: t.f64_or("intensity_pct", d.intensity_pct)?,
             intensity_db: t.f64_or("intensity_db", d.intensity_db)?,
@@ -706,6 +715,7 @@ impl Campaign {
             ("range_m", tolerance.range_m),
             ("radial_velocity_kmh", tolerance.radial_velocity_kmh),
             ("azimuth_deg", tolerance.azimuth_deg),
+            ("elevation_deg", tolerance.elevation_deg),
             ("power_db", tolerance.power_db),
             ("intensity_pct", tolerance.intensity_pct),
             ("intensity_db", tolerance.intensity_db),
@@ -765,9 +775,14 @@ impl Campaign {
         // [traces]
         let t = req_table("traces")?;
         let sensor_view = dir.join(t.str_req("sensor_view")?);
-        // Camera campaigns carry RAW frames (`[[frame]]`) instead of a SensorData trace.
+        // Camera campaigns carry RAW frames (`[[frame]]`) or a SensorData trace of detections.
+        let mut camera_detections = false;
         let sensor_data = match kind {
-            CampaignSensor::Camera => dir.join(t.str_opt("sensor_data")?.unwrap_or_default()),
+            CampaignSensor::Camera => {
+                let trace = t.str_opt("sensor_data")?;
+                camera_detections = trace.is_some() && root.get("frame").is_none();
+                dir.join(trace.unwrap_or_default())
+            }
             _ => dir.join(t.str_req("sensor_data")?),
         };
         t.finish(&mut warnings);
@@ -786,6 +801,7 @@ impl Campaign {
             split,
             sensor_view,
             sensor_data,
+            camera_detections,
             warnings,
         })
     }

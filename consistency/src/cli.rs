@@ -132,7 +132,7 @@ pub fn run_with_catalogue(
         None => Catalogue::builtin(campaign.sensor.kind)?,
     }
     .for_campaign(&campaign);
-    if campaign.sensor.kind == CampaignSensor::Camera {
+    if campaign.sensor.kind == CampaignSensor::Camera && !campaign.camera_detections {
         return super::camera::run_with(args, &campaign, &catalogue);
     }
     std::fs::create_dir_all(&args.out)

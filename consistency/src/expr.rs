@@ -3,7 +3,7 @@
 //! A tiny recursive-descent parser compiled once into a tree; evaluation allocates nothing.
 //! Grammar: `+ - * / ^`, unary minus, parentheses, numbers, variables (explanatory variables of a
 //! residual row, catalogue constants, parameters `p0`, `p1`, `pi`) and the functions `log10`, `ln`,
-//! `exp`, `sqrt`, `abs`, `cos`, `sin`, `atan`, `cosd` (cosine of degrees), `min`, `max`, `npdf` (standard
+//! `exp`, `sqrt`, `abs`, `cos`, `sin`, `atan`, `acos` (argument clamped to [−1, 1]), `cosd` (cosine of degrees), `min`, `max`, `npdf` (standard
 //! normal density) and `ncdf` (standard normal distribution function; censoring signatures).
 
 use anyhow::{Result, bail};
@@ -32,6 +32,8 @@ pub enum Func {
     Sin,
     /// Arc tangent, rad.
     Atan,
+    /// Arc cosine, rad, of the argument clamped to [−1, 1] (circle-overlap areas need no branches).
+    Acos,
     Cosd,
     Min,
     Max,
@@ -98,6 +100,7 @@ impl Expr {
                     Func::Cos => a.cos(),
                     Func::Sin => a.sin(),
                     Func::Atan => a.atan(),
+                    Func::Acos => a.clamp(-1.0, 1.0).acos(),
                     Func::Cosd => a.to_radians().cos(),
                     Func::Min => a.min(args[1].eval(x, p)),
                     Func::Max => a.max(args[1].eval(x, p)),
@@ -226,6 +229,7 @@ fn call1(f: Func, a: f64) -> f64 {
         Func::Cos => a.cos(),
         Func::Sin => a.sin(),
         Func::Atan => a.atan(),
+        Func::Acos => a.clamp(-1.0, 1.0).acos(),
         Func::Cosd => a.to_radians().cos(),
         Func::Npdf => npdf(a),
         Func::Ncdf => ncdf(a),
@@ -450,6 +454,7 @@ impl Parser<'_> {
                         "cos" => Func::Cos,
                         "sin" => Func::Sin,
                         "atan" => Func::Atan,
+                        "acos" => Func::Acos,
                         "cosd" => Func::Cosd,
                         "min" => Func::Min,
                         "max" => Func::Max,

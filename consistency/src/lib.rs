@@ -136,8 +136,11 @@ pub mod quantity {
     /// Radar and FMCW LiDAR radial velocity, km/h (OSI sign: positive towards the sensor; a
     /// LiDAR point's `LidarDetection.radial_velocity`).
     pub const RADIAL_VELOCITY_KMH: &str = "radial_velocity_kmh";
-    /// Radar azimuth, deg.
+    /// Radar azimuth, deg; LiDAR target centroid azimuth; camera: azimuth of the centre of a
+    /// detection's angular box.
     pub const AZIMUTH_DEG: &str = "azimuth_deg";
+    /// Camera: elevation of the centre of a detection's angular box, deg (positive up).
+    pub const ELEVATION_DEG: &str = "elevation_deg";
     /// Radar power quantity (RCS estimate dBsm or SNR dB per `quantity_semantics`), dB.
     pub const POWER_DB: &str = "power_db";
     /// LiDAR intensity, % (metrics).
@@ -207,6 +210,7 @@ pub fn tolerance_of(q: &str, t: &campaign::Tolerances) -> f64 {
         quantity::RANGE_M => t.range_m,
         quantity::RADIAL_VELOCITY_KMH => t.radial_velocity_kmh,
         quantity::AZIMUTH_DEG => t.azimuth_deg,
+        quantity::ELEVATION_DEG => t.elevation_deg,
         quantity::POWER_DB => t.power_db,
         quantity::INTENSITY_PCT => t.intensity_pct,
         quantity::INTENSITY_DB | quantity::INTENSITY_SD_DB => t.intensity_db,
@@ -240,9 +244,12 @@ pub fn attribution_quantities(kind: campaign::CampaignSensor) -> &'static [&'sta
             quantity::INTENSITY_SD_DB,
             quantity::RANGE_SD_M,
         ],
-        campaign::CampaignSensor::Camera => {
-            &[quantity::CAMERA_MEAN_DN, quantity::CAMERA_VARIANCE_PCT]
-        }
+        campaign::CampaignSensor::Camera => &[
+            quantity::CAMERA_MEAN_DN,
+            quantity::CAMERA_VARIANCE_PCT,
+            quantity::AZIMUTH_DEG,
+            quantity::ELEVATION_DEG,
+        ],
     }
 }
 
@@ -264,9 +271,12 @@ pub fn metric_quantities(kind: campaign::CampaignSensor) -> &'static [&'static s
             quantity::INTENSITY_SD_DB,
             quantity::RANGE_SD_M,
         ],
-        campaign::CampaignSensor::Camera => {
-            &[quantity::CAMERA_MEAN_PCT, quantity::CAMERA_VARIANCE_ROI_PCT]
-        }
+        campaign::CampaignSensor::Camera => &[
+            quantity::CAMERA_MEAN_PCT,
+            quantity::CAMERA_VARIANCE_ROI_PCT,
+            quantity::AZIMUTH_DEG,
+            quantity::ELEVATION_DEG,
+        ],
     }
 }
 

@@ -178,7 +178,7 @@ pub fn unit_of(q: &str) -> &'static str {
     match q {
         super::quantity::RANGE_M | super::quantity::RANGE_SD_M => "m",
         super::quantity::RADIAL_VELOCITY_KMH => "km/h",
-        super::quantity::AZIMUTH_DEG => "deg",
+        super::quantity::AZIMUTH_DEG | super::quantity::ELEVATION_DEG => "deg",
         super::quantity::POWER_DB
         | super::quantity::INTENSITY_DB
         | super::quantity::INTENSITY_SD_DB => "dB",

@@ -463,7 +463,7 @@ pub fn pair(
             CampaignSensor::Radar => radar_frame(campaign, &geom, md, sd, frame, time_s, &mut out),
             CampaignSensor::Lidar => lidar_frame(campaign, &geom, md, sd, frame, time_s, &mut out),
             CampaignSensor::Camera => {
-                bail!("camera campaigns are not supported yet (radar and lidar are)")
+                camera_frame(campaign, &geom, md, sd, frame, time_s, &mut out)
             }
         }
         frame += 1;
@@ -625,6 +625,137 @@ fn radar_frame(
             radar_power(campaign, a),
             radar_power(campaign, b),
         );
+    }
+    out.counts.meas_unassociated += m_used.iter().filter(|u| !**u).count();
+    out.counts.sim_unassociated += s_used.iter().filter(|u| !**u).count();
+}
+
+/// A camera detection: the direction of its angular box centre (azimuth, elevation; deg) and its
+/// object id.
+type CameraDirection = (Option<(f64, f64)>, Option<osi3::Identifier>);
+
+/// The direction of a camera detection: the centre of the angular box spanned by its points
+/// (OSI `CameraPoint.point`, spherical in the sensor frame; a box detection has two, the first and
+/// third corner), (azimuth, elevation) in deg; `None` without finite points.
+fn camera_direction(
+    data: &osi3::CameraDetectionData,
+    d: &osi3::CameraDetection,
+) -> Option<(f64, f64)> {
+    let first = d.first_point_index? as usize;
+    let n = d.number_of_points.unwrap_or(0) as usize;
+    let points = data.point.get(first..first.checked_add(n)?)?;
+    let (mut az, mut el) = (
+        (f64::INFINITY, f64::NEG_INFINITY),
+        (f64::INFINITY, f64::NEG_INFINITY),
+    );
+    for p in points.iter().filter_map(|p| p.point.as_ref()) {
+        let (a, e) = (p.azimuth?, p.elevation.unwrap_or(0.0));
+        if !(a.is_finite() && e.is_finite()) {
+            return None;
+        }
+        az = (az.0.min(a), az.1.max(a));
+        el = (el.0.min(e), el.1.max(e));
+    }
+    az.0.is_finite().then(|| {
+        (
+            (0.5 * (az.0 + az.1)).to_degrees(),
+            (0.5 * (el.0 + el.1)).to_degrees(),
+        )
+    })
+}
+
+/// Camera detections (campaigns with `camera_detections`): per target and frame the measured and
+/// the simulated detection of the target's ground-truth id (or, associating by gating or without
+/// ids, the detection nearest in direction within 3°), rows of the direction of the detection's
+/// angular box centre: `azimuth_deg`, `elevation_deg`. A mono camera's distance estimate is not a
+/// measurement of the target's range; it gives no row.
+fn camera_frame(
+    campaign: &Campaign,
+    geom: &FrameGeom,
+    md: &osi3::SensorData,
+    (sd, sd_truth): (&osi3::SensorData, Option<&[u64]>),
+    frame: usize,
+    time_s: f64,
+    out: &mut Paired,
+) {
+    // (azimuth, elevation) per detection, and its object id.
+    let dets = |d: &osi3::SensorData| -> Vec<CameraDirection> {
+        d.feature_data
+            .as_ref()
+            .into_iter()
+            .flat_map(|f| f.camera_sensor.iter())
+            .flat_map(|c| {
+                c.detection
+                    .iter()
+                    .map(move |d| (camera_direction(c, d), d.object_id))
+            })
+            .collect()
+    };
+    let (m, s) = (dets(md), dets(sd));
+    let m_truth = detection_truth(md, m.iter().map(|d| d.1), m.len(), None);
+    let s_truth = detection_truth(sd, s.iter().map(|d| d.1), s.len(), sd_truth);
+    let by_id = |t: &[Option<u64>]| t.iter().any(Option::is_some);
+    let use_ids = campaign.association.method == AssociationMethod::ObjectId;
+    let (m_ids, s_ids) = (use_ids && by_id(&m_truth), use_ids && by_id(&s_truth));
+    let mut m_used = vec![false; m.len()];
+    let mut s_used = vec![false; s.len()];
+    let pick = |list: &[CameraDirection],
+                truth: &[Option<u64>],
+                used: &mut [bool],
+                ids: bool,
+                g: &TargetGeometry|
+     -> Option<usize> {
+        let mut best: Option<(f64, usize)> = None;
+        for (i, (dir, _)) in list.iter().enumerate() {
+            let Some((az, el)) = *dir else { continue };
+            if used[i] || (ids && truth[i] != Some(g.id)) {
+                continue;
+            }
+            let cost = (az - g.azimuth_deg).hypot(el - g.elevation_deg);
+            if !ids && (cost.is_nan() || cost > 3.0) {
+                continue;
+            }
+            if best.is_none_or(|(b, _)| cost < b) {
+                best = Some((cost, i));
+            }
+        }
+        let i = best.map(|(_, i)| i)?;
+        used[i] = true;
+        Some(i)
+    };
+    for g in &geom.targets {
+        out.counts.opportunities += 1;
+        let mi = pick(&m, &m_truth, &mut m_used, m_ids, g);
+        let si = pick(&s, &s_truth, &mut s_used, s_ids, g);
+        out.counts.meas_detected += usize::from(mi.is_some());
+        out.counts.sim_detected += usize::from(si.is_some());
+        let (Some(mi), Some(si)) = (mi, si) else {
+            continue;
+        };
+        out.counts.both += 1;
+        let (Some((ma, me)), Some((sa, se))) = (m[mi].0, s[si].0) else {
+            continue;
+        };
+        let x = vars(campaign, geom, g);
+        let station = station_key(g.id, g.range_m, g.azimuth_deg);
+        for (q, meas, sim) in [
+            (quantity::AZIMUTH_DEG, ma, sa),
+            (quantity::ELEVATION_DEG, me, se),
+        ] {
+            let mut x = x;
+            x[super::V_SIM] = sim;
+            x[super::V_PRX] = sim;
+            out.rows.push(Row {
+                quantity: q,
+                frame,
+                time_s,
+                target: g.id,
+                station,
+                meas,
+                sim,
+                x,
+            });
+        }
     }
     out.counts.meas_unassociated += m_used.iter().filter(|u| !**u).count();
     out.counts.sim_unassociated += s_used.iter().filter(|u| !**u).count();

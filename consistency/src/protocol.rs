@@ -179,7 +179,13 @@ pub fn cases() -> Vec<Case> {
         },
         Case {
             name: "lidar.overlap_function",
-            design: lidar(vec![LidarHidden::Overlap { r0_m: 3.0 }], None),
+            design: lidar(
+                vec![LidarHidden::Overlap {
+                    r_on_m: 1.5,
+                    full_ratio: 3.0,
+                }],
+                None,
+            ),
             expect: effects(&["lidar.overlap_function"]),
             known_gap: None,
         },

@@ -494,11 +494,43 @@ sensor_data = "sd_measured.osi"
     Ok(files)
 }
 
+/// Fraction of a transmitter spot of radius r_t = a·R inside a receiver field of view of radius
+/// r_r = b·R whose axis is d = 1 away (physics.md §2.3, scale-free): the circle–circle overlap area
+/// over π r_t², with a = (1 − 1/ratio)/(2 r_on) and b = (1 + 1/ratio)/(2 r_on), so that it starts at
+/// R = r_on and is complete at R = ratio·r_on.
+pub fn biaxial_overlap(range_m: f64, r_on_m: f64, full_ratio: f64) -> f64 {
+    let rt = range_m * (1.0 - 1.0 / full_ratio) / (2.0 * r_on_m);
+    let rr = range_m * (1.0 + 1.0 / full_ratio) / (2.0 * r_on_m);
+    if rt + rr <= 1.0 {
+        return 0.0;
+    }
+    if rr - rt >= 1.0 {
+        return 1.0;
+    }
+    let a1 = rt
+        * rt
+        * ((1.0 + rt * rt - rr * rr) / (2.0 * rt))
+            .clamp(-1.0, 1.0)
+            .acos();
+    let a2 = rr
+        * rr
+        * ((1.0 + rr * rr - rt * rt) / (2.0 * rr))
+            .clamp(-1.0, 1.0)
+            .acos();
+    let a3 = 0.5
+        * ((rt + rr - 1.0) * (1.0 + rt - rr) * (1.0 - rt + rr) * (1.0 + rt + rr))
+            .max(0.0)
+            .sqrt();
+    ((a1 + a2 - a3) / (std::f64::consts::PI * rt * rt)).clamp(0.0, 1.0)
+}
+
 /// Hidden effects of the LiDAR truth.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum LidarHidden {
-    /// Measurement: receiver overlap 1 − exp(−(R/R0)²); the model has none (DIVP).
-    Overlap { r0_m: f64 },
+    /// Measurement: biaxial receiver overlap (physics.md §2.3) starting at `r_on_m` and complete at
+    /// `full_ratio` × `r_on_m` (transmitter spot and receiver field of view growing linearly with
+    /// range, their axes a fixed distance apart); the model has none (DIVP).
+    Overlap { r_on_m: f64, full_ratio: f64 },
     /// Measurement: vertical beam divergence, mrad; the model has none (DIVP).
     VerticalDivergence { mrad: f64 },
     /// Measurement: mixed pixels at depth edges within this horizontal footprint, mrad (DIVP).
@@ -592,8 +624,8 @@ pub fn write_lidar(dir: &Path, spec: &LidarTruth) -> Result<CampaignFiles> {
         });
     }
     let overlap = spec.hidden.iter().find_map(|h| {
-        if let LidarHidden::Overlap { r0_m } = h {
-            Some(*r0_m)
+        if let LidarHidden::Overlap { r_on_m, full_ratio } = h {
+            Some((*r_on_m, *full_ratio))
         } else {
             None
         }
@@ -731,8 +763,8 @@ pub fn write_lidar(dir: &Path, spec: &LidarTruth) -> Result<CampaignFiles> {
                         let cosi =
                             -(dir[0] * b.normal[0] + dir[1] * b.normal[1] + dir[2] * b.normal[2]);
                         let mut i = b.refl * cosi.max(0.0);
-                        if overlap_on && let Some(r0) = overlap {
-                            i *= 1.0 - (-(r / r0).powi(2)).exp();
+                        if overlap_on && let Some((r_on, ratio)) = overlap {
+                            i *= biaxial_overlap(r, r_on, ratio);
                         }
                         if fog_on && let Some(v) = fog {
                             i *= (-2.0 * 3.912 / v * r).exp();

@@ -1799,3 +1799,290 @@ fog_visibility_m = "inf"
     toml.push_str(&board_campaign_tail(pos_sigma));
     finish_board_campaign(dir, toml, &design, case.name(), frame, dropped)
 }
+
+// ---------------------------------------------------------------------------------------------
+// Camera detections (issue 19: mounting and timing effects of a camera).
+//
+// Cars (4.5 × 1.8 × 1.5 m boxes) stand or cross in front of a camera 1.3 m above the road on a
+// parked host. A detection is the smallest azimuth–elevation box containing the directions of the
+// car box's eight corners (OSI `CameraDetection` with two `CameraPoint`s, the first and third
+// corner, at the distance of the box centre). The measuring camera sees the true boxes from its
+// true frame at its own clock, with 0.05° of noise per box edge (≈ 1 px at a 1000 px focal
+// length), ~10 % of the frames missing and no object ids; the model sees the logged boxes
+// (2 cm survey jitter) from the nominal frame.
+
+/// Hidden-effect cases of the camera detection campaigns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CameraCase {
+    /// Nothing hidden.
+    Null,
+    /// The camera is turned 0.5–1.0° in yaw (either side) from its nominal mounting.
+    YawMisalignment,
+    /// The camera is pitched 0.3–0.8° (either sign) from its nominal mounting.
+    PitchMisalignment,
+    /// The camera's clock is 40–80 ms (either sign) off the ground truth's; cars cross.
+    TimeOffset,
+}
+
+impl CameraCase {
+    pub fn name(self) -> &'static str {
+        match self {
+            CameraCase::Null => "null",
+            CameraCase::YawMisalignment => "yaw_misalignment",
+            CameraCase::PitchMisalignment => "pitch_misalignment",
+            CameraCase::TimeOffset => "time_offset",
+        }
+    }
+}
+
+/// Camera height above the road, m.
+pub const CAMERA_MOUNT_H: f64 = 1.3;
+const CAR_DIMS: DVec3 = DVec3::new(4.5, 1.8, 1.5);
+/// Noise of each edge of a measured detection's angular box, deg (GUESSED: ≈ 1 px).
+const CAMERA_EDGE_NOISE_DEG: f64 = 0.05;
+
+/// The camera's mounting (x, z) relative to the host's box centre.
+pub fn camera_mounting() -> (f64, f64) {
+    (HOST_LEN / 2.0, CAMERA_MOUNT_H - HOST_H / 2.0)
+}
+
+/// The angular box of a car (centre `c`, yaw `yaw`, global) seen from a camera at `sensor` whose
+/// axes are `axes` (columns: its x, y, z in global coordinates): ((az_min, el_min),
+/// (az_max, el_max)) in rad, and the distance to the centre, m.
+fn angular_box(
+    sensor: DVec3,
+    axes: glam::DMat3,
+    c: DVec3,
+    yaw: f64,
+) -> ((f64, f64), (f64, f64), f64) {
+    let (s, co) = yaw.sin_cos();
+    let (mut az0, mut az1, mut el0, mut el1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for i in 0..8 {
+        let l = DVec3::new(
+            if i & 1 == 0 { -0.5 } else { 0.5 } * CAR_DIMS.x,
+            if i & 2 == 0 { -0.5 } else { 0.5 } * CAR_DIMS.y,
+            if i & 4 == 0 { -0.5 } else { 0.5 } * CAR_DIMS.z,
+        );
+        let g = c + DVec3::new(co * l.x - s * l.y, s * l.x + co * l.y, l.z);
+        let p = axes.transpose() * (g - sensor);
+        let az = p.y.atan2(p.x);
+        let el = p.z.atan2(p.x.hypot(p.y));
+        az0 = az0.min(az);
+        az1 = az1.max(az);
+        el0 = el0.min(el);
+        el1 = el1.max(el);
+    }
+    let centre = axes.transpose() * (c - sensor);
+    ((az0, el0), (az1, el1), centre.length())
+}
+
+fn camera_detection(
+    k: usize,
+    id: Option<u64>,
+    (lo, hi, r): ((f64, f64), (f64, f64), f64),
+) -> (osi3::CameraDetection, [osi3::CameraPoint; 2]) {
+    let point = |az: f64, el: f64| osi3::CameraPoint {
+        existence_probability: Some(1.0),
+        point: Some(osi3::Spherical3d {
+            distance: Some(r),
+            azimuth: Some(az),
+            elevation: Some(el),
+        }),
+        point_rmse: None,
+    };
+    (
+        osi3::CameraDetection {
+            existence_probability: Some(1.0),
+            object_id: id.and_then(ident),
+            image_shape_type: Some(osi3::camera_detection::ImageShapeType::Box as i32),
+            first_point_index: Some(2 * k as u32),
+            number_of_points: Some(2),
+            ..Default::default()
+        },
+        [point(lo.0, lo.1), point(hi.0, hi.1)],
+    )
+}
+
+fn sensor_data_camera(
+    frame: u64,
+    h_sensor: f64,
+    dets: Vec<(osi3::CameraDetection, [osi3::CameraPoint; 2])>,
+) -> osi3::SensorData {
+    let (detection, points): (Vec<_>, Vec<_>) = dets.into_iter().unzip();
+    osi3::SensorData {
+        timestamp: stamp(frame * FRAME_DT_NS),
+        sensor_id: ident(SENSOR_ID),
+        mounting_position: Some(mounting(h_sensor)),
+        feature_data: Some(osi3::FeatureData {
+            camera_sensor: vec![osi3::CameraDetectionData {
+                detection,
+                point: points.into_iter().flatten().collect(),
+                ..Default::default()
+            }],
+            ..Default::default()
+        }),
+        ..Default::default()
+    }
+}
+
+/// Writes a camera detection campaign for `case` and `seed` into `dir`: 36 stations × 3 frames,
+/// three cars per station at 8–60 m and ±20°: car 0 stands (its rear to the camera), car 1 crosses
+/// to the left and car 2 to the right at 3–6 m/s.
+pub fn camera_campaign(case: CameraCase, seed: u64, dir: &Path) -> anyhow::Result<Written> {
+    std::fs::create_dir_all(dir)?;
+    let mut rng = Rng::new(seed.wrapping_mul(6007).wrapping_add(case as u64));
+    let sign = |rng: &mut Rng| if rng.uniform() < 0.5 { -1.0 } else { 1.0 };
+    let h_s = CAMERA_MOUNT_H;
+    let sensor = DVec3::new(0.0, 0.0, h_s);
+    let (yaw_true, pitch_true, clock_s) = match case {
+        CameraCase::YawMisalignment => (
+            (sign(&mut rng) * rng.range(0.5, 1.0)).to_radians(),
+            0.0,
+            0.0,
+        ),
+        CameraCase::PitchMisalignment => (
+            0.0,
+            (sign(&mut rng) * rng.range(0.3, 0.8)).to_radians(),
+            0.0,
+        ),
+        CameraCase::TimeOffset => (0.0, 0.0, sign(&mut rng) * rng.range(0.04, 0.08)),
+        CameraCase::Null => (0.0, 0.0, 0.0),
+    };
+    // The true camera axes: yaw about the vertical, then pitch about the new y (OSI: positive
+    // pitch turns +x down).
+    let true_axes =
+        glam::DMat3::from_rotation_z(yaw_true) * glam::DMat3::from_rotation_y(pitch_true);
+    let nominal_axes = glam::DMat3::IDENTITY;
+    let pos_sigma = 0.02;
+    let azimuths = [-20.0f64, -10.0, 0.0, 10.0, 20.0];
+
+    let mut views = Vec::new();
+    let mut meas = Vec::new();
+    let mut sims = Vec::new();
+    let mut frame = 0u64;
+    let mut dropped = 0usize;
+    for k in 0..36usize {
+        // Per station: each car's range, azimuth slot and crossing speed.
+        let placed: Vec<(u64, f64, f64, f64)> = (0..3)
+            .map(|i| {
+                let r = 8.0 + 52.0 * ((k * 7 + 11 * i) % 36) as f64 / 35.0;
+                let az = azimuths[(2 * i + k) % 5].to_radians();
+                let speed = match i {
+                    0 => 0.0,
+                    1 => rng.range(3.0, 6.0),
+                    _ => -rng.range(3.0, 6.0),
+                };
+                (200 + i as u64, r, az, speed)
+            })
+            .collect();
+        for _ in 0..3 {
+            let mut logged = Vec::new();
+            let (mut m_dets, mut s_dets) = (Vec::new(), Vec::new());
+            for &(id, r, az, speed) in &placed {
+                // Box centre at the road: the car's centre 0.75 m above it.
+                let c_true = DVec3::new(r * az.cos(), r * az.sin(), 0.5 * CAR_DIMS.z);
+                // Crossing: velocity perpendicular to the line of sight (positive: to the left).
+                let v = speed * DVec3::new(-az.sin(), az.cos(), 0.0);
+                // Standing cars show their rear; crossing ones their side.
+                let yaw = if speed == 0.0 { az } else { az + 0.5 * PI };
+                let jitter = DVec3::new(rng.normal(), rng.normal(), rng.normal()) * pos_sigma;
+                let c_log = c_true + jitter;
+                logged.push(LoggedBox {
+                    id,
+                    centre: c_log,
+                    dims: CAR_DIMS,
+                    yaw,
+                    model_reference: "osiris:car".into(),
+                    velocity: v,
+                });
+                let sim_box = angular_box(sensor, nominal_axes, c_log, yaw);
+                let sk = s_dets.len();
+                s_dets.push(camera_detection(sk, Some(id), sim_box));
+                // The measuring camera: the car where it is `clock_s` later, from its true axes.
+                let (lo, hi, rr) = angular_box(sensor, true_axes, c_true + v * clock_s, yaw);
+                let n = |rng: &mut Rng| CAMERA_EDGE_NOISE_DEG.to_radians() * rng.normal();
+                let noisy = (
+                    (lo.0 + n(&mut rng), lo.1 + n(&mut rng)),
+                    (hi.0 + n(&mut rng), hi.1 + n(&mut rng)),
+                    rr,
+                );
+                let mk = m_dets.len();
+                m_dets.push(camera_detection(mk, None, noisy));
+            }
+            views.push(sensor_view(frame, h_s, &logged));
+            sims.push(sensor_data_camera(frame, h_s, s_dets));
+            if rng.uniform() < 0.10 {
+                dropped += 1;
+            } else {
+                meas.push(sensor_data_camera(frame, h_s, m_dets));
+            }
+            frame += 1;
+        }
+    }
+    write_trace(&dir.join("sv.osi"), &views)?;
+    write_trace(&dir.join("meas.osi"), &meas)?;
+    write_trace(&dir.join("model.osi"), &sims)?;
+    let toml = format!(
+        r#"schema = "osiris.consistency/1"
+
+[run]
+id = "independent-camera-{name}-{seed}"
+description = "independent truth generator (tests/support/independent_truth.rs): camera detections of standing and crossing cars, hidden case `{name}`"
+provenance = "synthetic"
+licence = "MPL-2.0"
+
+[sensor]
+kind = "camera"
+osi_sensor_id = {SENSOR_ID}
+mounting_position_m = [{mx}, 0.0, {mz}]
+mounting_orientation_rad = [0.0, 0.0, 0.0]
+
+[uncertainty]
+gt_position_sigma_m = {pos_sigma}
+
+[association]
+method = "gating"
+
+[tolerance]
+azimuth_deg = 0.2
+elevation_deg = 0.2
+
+[bins]
+explanatory = ["range", "azimuth"]
+
+[traces]
+sensor_view = "sv.osi"
+sensor_data = "meas.osi"
+
+[[target]]
+id = 200
+kind = "car"
+
+[[target]]
+id = 201
+kind = "car"
+
+[[target]]
+id = 202
+kind = "car"
+"#,
+        name = case.name(),
+        mx = HOST_LEN / 2.0,
+        mz = h_s - HOST_H / 2.0,
+    );
+    let meta = dir.join("consistency.toml");
+    std::fs::write(&meta, toml)?;
+    Ok(Written {
+        meta,
+        model_trace: dir.join("model.osi"),
+        hidden: case.name().into(),
+        hidden_value: match case {
+            CameraCase::YawMisalignment => Some(yaw_true.to_degrees()),
+            CameraCase::PitchMisalignment => Some(pitch_true.to_degrees()),
+            CameraCase::TimeOffset => Some(1e3 * clock_s),
+            CameraCase::Null => None,
+        },
+        frames: frame as usize,
+        dropped_frames: dropped,
+    })
+}
