@@ -207,6 +207,9 @@ impl Rendered {
 
 fn render(setup: &Setup, sv: &osi3::SensorView, cfg: &SensorConfig) -> Rendered {
     let mut effects = Effects::new(&catalogue());
+    // The closed forms below are those of the isotropic sky E_dhi/π unless a test switches the
+    // sky distribution on (`sky_distribution_shapes_the_sky_radiance`).
+    effects.set("env.sky_distribution", false).unwrap();
     for (k, v) in &setup.switches {
         effects.set(k, *v).unwrap();
     }
@@ -426,6 +429,69 @@ fn sun_disk_radiance() {
     assert_close(s.radiance, want, 1e-6, "SunInView radiance");
     // Disk pixels far exceed the sky (backlit scene saturates where the sun is).
     assert!(r.px(32, 24)[1] > 1e4 * r.px(0, 0)[1]);
+}
+
+/// `env.sky_distribution`: each sky pixel is the isotropic E_dhi/π times the CIE clear sky's
+/// k(ω) = π·ℓ(ω)/∫ℓ cos Z dΩ, with ℓ = f(χ)φ(Z)/(f(Z_s)φ(0)) of CIE S 011 type 12 written out here
+/// and its normalisation integrated here (midpoint rule, ¼° cells); off, the isotropic sky.
+#[test]
+fn sky_distribution_shapes_the_sky_radiance() {
+    let (sun_az, sun_el) = (-PI / 2.0, 35f64.to_radians());
+    let sv = view(vec![], vec![], sun(sun_az, sun_el), None);
+    let setup = |on: bool| Setup {
+        fov_deg: 60.0,
+        switches: vec![("env.sky_distribution", on)],
+        ..Setup::default()
+    };
+    // Pitched up 35° (positive pitch is nose down), so that the whole image is sky.
+    let cfg = sensor_config([0.0, 0.0, 2.0], [0.0, -35f64.to_radians(), 0.0], None);
+    let on = render(&setup(true), &sv, &cfg);
+    let off = render(&setup(false), &sv, &cfg);
+    let sun_dir = osiris_models::environment::sun::sun_direction(
+        sv.global_ground_truth
+            .as_ref()
+            .unwrap()
+            .environmental_conditions
+            .as_ref(),
+    );
+    let f =
+        |x: f64| 1.0 + 10.0 * ((-3.0 * x).exp() - (-3.0 * PI / 2.0).exp()) + 0.45 * x.cos().powi(2);
+    let phi = |z: f64| 1.0 - (-0.32 / z.cos().max(1e-12)).exp();
+    let zs = PI / 2.0 - sun_el;
+    let ell = |d: DVec3| {
+        let z = d.z.clamp(0.0, 1.0).acos();
+        let chi = d.dot(sun_dir).clamp(-1.0, 1.0).acos();
+        f(chi) * phi(z) / (f(zs) * phi(0.0))
+    };
+    let (nz, na) = (360usize, 1440usize);
+    let (dz, da) = (PI / 2.0 / nz as f64, 2.0 * PI / na as f64);
+    let mut integral = 0.0;
+    for i in 0..nz {
+        let z = (i as f64 + 0.5) * dz;
+        for j in 0..na {
+            let a = (j as f64 + 0.5) * da;
+            let d = DVec3::new(z.sin() * a.cos(), z.sin() * a.sin(), z.cos());
+            integral += ell(d) * z.cos() * z.sin() * dz * da;
+        }
+    }
+    let mut ratios = Vec::new();
+    for (x, y) in [(32, 24), (0, 0), (63, 47), (5, 40), (60, 3)] {
+        let d = (on.rotation * on.rays[y * on.width + x].as_dvec3()).normalize();
+        let want = PI * ell(d) / integral;
+        let got = on.px(x, y)[1] / off.px(x, y)[1];
+        assert!(
+            (got / want - 1.0).abs() < 0.01,
+            "pixel ({x}, {y}), direction {d:?}: on/off {got:.4}, CIE k {want:.4}"
+        );
+        ratios.push(got);
+    }
+    // Off: every sky pixel the same E_dhi/π.
+    assert!((off.px(0, 0)[1] / off.px(63, 47)[1] - 1.0).abs() < 1e-6);
+    // On: the image is not flat.
+    let (lo, hi) = ratios
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), &r| (a.min(r), b.max(r)));
+    assert!(hi > 1.3 * lo, "sky factors {ratios:?}");
 }
 
 /// Fog: L = L_0 e^{−σd} + L_air (1 − e^{−σd}), σ per band, L_air = E_dhi/π.

@@ -46,6 +46,8 @@ const CASES: &[(&str, Bench)] = &[
     // Environment (weather, road, materials).
     ("env.fog_extinction", Bench::Lidar),
     ("env.rain_extinction", Bench::Lidar),
+    // The camera scene's sky and sunlit surfaces (the sun is up in it).
+    ("env.sky_distribution", Bench::Camera),
     ("env.atmospheric_absorption", Bench::Radar),
     ("env.wet_road", Bench::Lidar),
     ("env.wet_surfaces", Bench::Lidar),

@@ -11,11 +11,13 @@
 //!   ([`crate::environment::material::Material::eval_brdf`], the diffuse coupling and the specular
 //!   lobe are wavelength-independent, the diffuse albedo is spectral). `E_dni` from SPCTRAL2
 //!   (Bird & Riordan 1986, [`crate::environment::sky::spectrl2`]) at the sun's zenith.
-//! * **Sky**: isotropic sky of radiance `L_sky = E_dhi/π` (the diffuse horizontal irradiance of
-//!   SPCTRAL2 spread uniformly over the hemisphere; the isotropic model of Liu & Jordan, Solar
-//!   Energy 4(3):1, 1960). With `diffuse_bounces = 0` (or `space.multipath` or
-//!   `space.diffuse_bounces` off) a surface gets the ambient term
-//!   `ρ/π · E_dhi · (1 + n_z)/2` (sky-view factor of a tilted plane, no occlusion); with
+//! * **Sky**: radiance `L_sky(ω) = k(ω)·E_dhi/π` with `E_dhi` the diffuse horizontal irradiance
+//!   of SPCTRAL2 and `k` the CIE general sky's distribution scaled to it (`env.sky_distribution`,
+//!   [`crate::environment::sky_distribution`], physics.md §4.3: horizon brightening and the
+//!   circumsolar region; type [`RenderConfig::sky_type`]); off: `k ≡ 1`, the isotropic sky of
+//!   Liu & Jordan, Solar Energy 4(3):1, 1960. With `diffuse_bounces = 0` (or `space.multipath` or
+//!   `space.diffuse_bounces` off) a surface gets the ambient term `ρ/π · E_dhi · V(n)` (the sky's
+//!   irradiance on a tilted plane, no occlusion; isotropic: `V = (1 + n_z)/2`); with
 //!   `diffuse_bounces ≥ 1` the sky light is sampled by cosine-weighted bounce rays instead, which
 //!   also carry sun light reflected by other surfaces (one-sample Monte-Carlo estimate
 //!   `ρ(λ)·L_in(λ)` per bounce, PBRT 4th ed. §13.6).
@@ -27,11 +29,11 @@
 //!   [`RenderConfig::max_glass_crossings`] panes ([`crate::space::Space::closest_hit_through`]) and
 //!   is attenuated by the slab transmittance at 550 nm and the incidence angle
 //!   ([`crate::environment::material::Material::transmittance`]); the pane reflects the sky
-//!   (`R_slab · L_sky`). With `space.transmission` off the panes are opaque.
+//!   (`R_slab · L_sky(mirror direction)`). With `space.transmission` off the panes are opaque.
 //! * **Fog** (`env.fog_extinction`, Koschmieder 1924): `L = L_0 e^{−σd} + L_air(1 − e^{−σd})` with
 //!   `σ(λ_k)` from [`crate::environment::weather::extinction_per_m_with`] and the air light
-//!   `L_air = L_sky` (horizon sky radiance of the isotropic model); rays that leave the scene see
-//!   `L_air`.
+//!   `L_air = L_sky` at the horizon in the ray's azimuth (Koschmieder's horizon sky); rays that
+//!   leave the scene see `L_air`.
 //!
 //! # Exactness of the folded tables
 //!
@@ -90,6 +92,7 @@ use crate::effects::{EffectInfo, Effects};
 use crate::environment::material::{Band, MaterialDb};
 use crate::environment::scene::StaticElement;
 use crate::environment::sky::{ClearSkyInput, spectrl2};
+use crate::environment::sky_distribution::{CieSkyType, SKY_DISTRIBUTION, SkyDistribution};
 use crate::environment::sun::SUN_RADIUS_DEG;
 use crate::environment::weather;
 use crate::error::ModelError;
@@ -171,6 +174,9 @@ pub struct RenderConfig {
     pub max_distance_m: f64,
     /// Vehicle lamps.
     pub lamps: LampConfig,
+    /// CIE general sky type (1…15, CIE S 011/E:2003) of the sky radiance distribution
+    /// (`env.sky_distribution`); default 12, the CIE standard clear sky.
+    pub sky_type: u8,
 }
 
 impl Default for RenderConfig {
@@ -187,6 +193,7 @@ impl Default for RenderConfig {
             max_glass_crossings: 4,
             max_distance_m: 5000.0,
             lamps: LampConfig::default(),
+            sky_type: crate::environment::sky_distribution::DEFAULT_CIE_SKY_TYPE,
         }
     }
 }
@@ -235,6 +242,15 @@ impl RenderConfig {
             return err(
                 "motion_threshold_px",
                 format!("must be ≥ 0, got {}", self.motion_threshold_px),
+            );
+        }
+        if !(1..=15).contains(&self.sky_type) {
+            return err(
+                "sky_type",
+                format!(
+                    "must be a CIE general sky type 1..=15, got {}",
+                    self.sky_type
+                ),
             );
         }
         if !(1..=366).contains(&self.day_of_year) {
@@ -325,11 +341,6 @@ pub fn sun_solid_angle_sr() -> f64 {
     2.0 * PI * (1.0 - SUN_RADIUS_DEG.to_radians().cos())
 }
 
-/// Sky-view factor of a surface with unit normal `n` (z up) under an isotropic sky: `(1 + n_z)/2`.
-pub fn sky_view_factor(n: DVec3) -> f64 {
-    0.5 * (1.0 + n.z.clamp(-1.0, 1.0))
-}
-
 /// The spectral renderer (plan once: band tables, light spectra; execute per frame).
 pub struct Renderer {
     bands: SpectralBands,
@@ -345,6 +356,10 @@ pub struct Renderer {
     id_map: HashMap<u64, u32>,
     /// The instances swept over each frame's exposure windows.
     sweep: Sweep,
+    /// `env.sky_distribution` on.
+    sky_shape: bool,
+    /// The sky distribution of the last sun direction (recomputed when the sun moves).
+    sky: Option<(DVec3, SkyDistribution)>,
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -413,6 +428,8 @@ struct Ctx<'a> {
     weights: [[f32; MAX_BANDS]; CHANNELS],
     sigma: [f32; MAX_BANDS],
     fog: bool,
+    /// The sky's radiance distribution relative to E_dhi/π.
+    sky: &'a SkyDistribution,
     sun_dir: DVec3,
     sun_up: bool,
     cos_sun_radius: f64,
@@ -486,6 +503,8 @@ struct Scratch {
     panes: Vec<(u32, u32)>,
     trans: Vec<f32>,
     refl: Vec<f32>,
+    /// Per item: the sky factor of the fog's air light (horizon in the primary ray's azimuth).
+    air: Vec<f32>,
     acc: Vec<f32>,
     emit: Vec<f32>,
     lamp: Vec<u32>,
@@ -535,6 +554,8 @@ impl Renderer {
             pixel_ids: Vec::new(),
             id_map: HashMap::new(),
             sweep: Sweep::new(),
+            sky_shape: effects.is_on(&SKY_DISTRIBUTION),
+            sky: None,
         })
     }
 
@@ -577,6 +598,21 @@ impl Renderer {
             ..self.config.atmosphere
         });
         let sun_up = el_deg > 0.0;
+        // The sky's radiance distribution (planned once per sun direction).
+        if !self
+            .sky
+            .as_ref()
+            .is_some_and(|(d, _)| d.dot(sun_dir) > 1.0 - 1e-12)
+        {
+            let dist = if self.sky_shape {
+                let ty = CieSkyType::standard(self.config.sky_type)
+                    .expect("sky_type validated to 1..=15");
+                SkyDistribution::cie(ty, sun_dir)
+            } else {
+                SkyDistribution::isotropic()
+            };
+            self.sky = Some((sun_dir, dist));
+        }
         plan_lamps(
             &mut self.lamp_plan,
             &self.config.lamps,
@@ -747,6 +783,7 @@ impl Renderer {
             weights,
             sigma,
             fog,
+            sky: &self.sky.as_ref().expect("planned above").1,
             sun_dir,
             sun_up,
             cos_sun_radius: SUN_RADIUS_DEG.to_radians().cos(),
@@ -1119,7 +1156,9 @@ impl Ctx<'_> {
                     .get(hit.material)
                     .slab_optics(Band::Visible(550.0), cos);
                 if let Some(so) = optics {
-                    s.refl[i] = so.reflectance as f32;
+                    let n = hit.facing_normal();
+                    let mirror = ray.direction - 2.0 * ray.direction.dot(n) * n;
+                    s.refl[i] = (so.reflectance * self.sky.factor(mirror)) as f32;
                 }
                 s.glass_first.push((i as u32, *hit));
                 // Through the pane (as `Space::closest_hit_through`, from the pane already found;
@@ -1175,6 +1214,8 @@ impl Ctx<'_> {
         s.emit.resize(n * nl, 0.0);
         s.pend.clear();
         s.srays.clear();
+        s.air.clear();
+        s.air.resize(n, 1.0);
         let sky_l = self.rows.sky_l();
         let mut owner = (0u32, 0u32, u64::MAX);
         let mut glass_next = 0;
@@ -1216,6 +1257,12 @@ impl Ctx<'_> {
                     .cross(ray.direction)
                     .length() as f32;
             }
+            if self.fog {
+                s.air[i] = self
+                    .sky
+                    .factor(DVec3::new(ray.direction.x, ray.direction.y, 0.0))
+                    as f32;
+            }
             let acc = &mut s.acc[i * nl..(i + 1) * nl];
             // Glass reflects the sky.
             if s.refl[i] > 0.0 {
@@ -1242,8 +1289,9 @@ impl Ctx<'_> {
             }
             let Some(hit) = s.hits[i] else {
                 // Sky (and the sun disk).
+                let k = tr * self.sky.factor(ray.direction) as f32;
                 for (a, l) in acc.iter_mut().zip(self.row(sky_l)) {
-                    *a += tr * l;
+                    *a += k * l;
                 }
                 if self.sun_up && ray.direction.dot(self.sun_dir) >= self.cos_sun_radius {
                     for (a, l) in acc.iter_mut().zip(self.row(self.rows.disk())) {
@@ -1280,9 +1328,10 @@ impl Ctx<'_> {
             let em = &mut s.emit[i * nl..(i + 1) * nl];
             if self.fog {
                 let air = &self.table[sky_l * nl..(sky_l + 1) * nl];
+                let k = s.air[i];
                 for l in 0..nl {
                     let t = (-(f64::from(self.sigma[l]) * depth)).exp() as f32;
-                    acc[l] = acc[l] * t + air[l] * (1.0 - t);
+                    acc[l] = acc[l] * t + k * air[l] * (1.0 - t);
                     em[l] *= t;
                 }
             }
@@ -1330,7 +1379,7 @@ impl Ctx<'_> {
             }
         };
         if ambient {
-            let vf = sky_view_factor(n) as f32 * weight;
+            let vf = self.sky.view_factor(n) as f32 * weight;
             let row = self.rows.sky(m);
             let acc = &mut s.acc[item as usize * nl..(item as usize + 1) * nl];
             if beta {
@@ -1347,9 +1396,9 @@ impl Ctx<'_> {
             if lobe {
                 let mirror = 2.0 * n.dot(wo) * n - wo;
                 if mirror.z > 0.0 && !beta {
-                    let r = mat
+                    let r = (mat
                         .specular_reflectance(Band::Visible(550.0), n.dot(wo).clamp(0.0, 1.0))
-                        as f32
+                        * self.sky.factor(mirror)) as f32
                         * weight;
                     let sky = self.rows.sky_l();
                     for (a, t) in acc.iter_mut().zip(&self.table[sky * nl..(sky + 1) * nl]) {
@@ -1507,8 +1556,10 @@ impl Ctx<'_> {
                 }
                 match s.hits[j] {
                     None => {
+                        let k = self.sky.factor(s.rays[j].direction) as f32;
                         for l in 0..nl {
-                            s.acc[i * nl + l] += s.beta[i * nl + l] * self.table[sky_l * nl + l];
+                            s.acc[i * nl + l] +=
+                                k * s.beta[i * nl + l] * self.table[sky_l * nl + l];
                         }
                         s.vert[i] = None;
                     }

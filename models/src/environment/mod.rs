@@ -16,10 +16,16 @@ pub mod material;
 pub mod mesh;
 pub mod scene;
 pub mod sky;
+pub mod sky_distribution;
 pub mod sun;
 pub mod weather;
 
-/// Every effect of the environment model (materials and weather).
+/// Every effect of the environment model (materials, weather, sky distribution).
 pub fn effects() -> Vec<crate::effects::EffectInfo> {
-    [material::EFFECTS, weather::EFFECTS].concat()
+    [
+        material::EFFECTS,
+        weather::EFFECTS,
+        &[sky_distribution::SKY_DISTRIBUTION],
+    ]
+    .concat()
 }
