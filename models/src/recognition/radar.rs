@@ -37,9 +37,13 @@
 //!    tangential part with the tracker's `initial_velocity_std_m_s`); stationary clusters only
 //!    update existing tracks unless `track_stationary`. M-of-N confirmation is the temporal
 //!    persistence check: a single-frame false alarm is never reported.
-//! 6. **Output** for confirmed (MEASURED) and coasting (PREDICTED) tracks: the track position
-//!    (the reflection centroid, not the box centre — the radar does not see the extent), heading
-//!    from the velocity, the class's typical size, existence probability, age, mean RCS, and class
+//! 6. **Output** for confirmed (MEASURED) and coasting (PREDICTED) tracks: the box centre
+//!    (OSI's `base.position`) estimated from the track position, which is the reflection
+//!    centroid on the face the radar sees: the class's typical box (length L, width W) with the
+//!    track's heading is placed behind that face, `centre = c + u·((L/2)|u·h| + (W/2)|u·h⊥|)` with
+//!    u the horizontal line of sight to the centroid and h the heading (a track without a heading
+//!    is taken to show its rear or front, h = u); heading from the velocity, the class's typical
+//!    size, existence probability, age, mean RCS, and class
 //!    candidates from a rule-based RCS classifier: Gaussian likelihoods (σ = 5 dB, guessed) around
 //!    the ideal model's typical 77 GHz RCS (car 10, truck 20, bicycle 0, pedestrian −5 dBsm, see
 //!    [`crate::ideal::default_rcs_moving_dbsm`]), `Unknown` at a 2σ constant. Each input detection
@@ -58,6 +62,25 @@ use super::free_space::{FreeSpace, FreeSpaceDetection};
 use super::tracking::{Measurement, RadialVelocity, Tracker, TrackerConfig};
 use super::{EgoState, RadarDetection};
 use crate::error::ModelError;
+
+/// The centre of a box of `size_m` (length, width, height) whose face towards `sensor` holds the
+/// reflection centroid `centroid` (fixed frame): `centroid + u·((L/2)|u·h| + (W/2)|u·h⊥|)` in the
+/// horizontal plane, u the unit line of sight from the sensor to the centroid, h the unit heading
+/// (`None`: the box shows its rear or front, h = u). The half-depth is the box's support along u.
+pub fn box_centre_behind_face(
+    centroid: DVec3,
+    sensor: DVec3,
+    heading: Option<DVec2>,
+    size_m: [f64; 3],
+) -> DVec3 {
+    let u = (centroid - sensor).truncate().normalize_or_zero();
+    if u == DVec2::ZERO {
+        return centroid;
+    }
+    let h = heading.map_or(u, |h| h.normalize_or(u));
+    let depth = 0.5 * size_m[0] * u.dot(h).abs() + 0.5 * size_m[1] * u.perp_dot(h).abs();
+    centroid + (u * depth).extend(0.0)
+}
 
 /// Radar recognition parameters (`radar.recognition` in the sensor configuration).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -741,12 +764,20 @@ impl RadarRecognition {
             let k = (0..5)
                 .max_by(|&x, &y| a.class_probabilities[x].total_cmp(&a.class_probabilities[y]))
                 .unwrap_or(4);
+            let size = ObjectClass::ALL[k].typical_size_m();
+            let centroid = DVec3::new(tr.x[0], tr.x[1], a.centre_z_m);
+            let heading = (speed > common::MOVING_SPEED_M_S).then(|| DVec2::from_angle(yaw));
             out.push(common::detected_object(
                 ego,
                 &Report {
-                    centre_m: DVec3::new(tr.x[0], tr.x[1], a.centre_z_m),
+                    centre_m: box_centre_behind_face(
+                        centroid,
+                        ego.sensor_pose.position,
+                        heading,
+                        size,
+                    ),
                     yaw_rad: yaw,
-                    size_m: ObjectClass::ALL[k].typical_size_m(),
+                    size_m: size,
                     velocity_m_s: DVec3::new(tr.x[2], tr.x[3], 0.0),
                     track_id: tr.id,
                     ground_truth_id: if tr.updated { a.ground_truth_id } else { None },
@@ -854,6 +885,27 @@ pub fn fit_segment(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn box_centre_lies_behind_the_seen_face() {
+        let car = [4.5, 1.8, 1.5];
+        let s = DVec3::new(0.0, 0.0, 0.5);
+        // Rear face seen straight on (heading away): L/2 behind it.
+        let c = box_centre_behind_face(DVec3::new(20.0, 0.0, 0.7), s, Some(DVec2::X), car);
+        assert!((c - DVec3::new(22.25, 0.0, 0.7)).length() < 1e-12, "{c}");
+        // Crossing at 90°: W/2 behind the side.
+        let c = box_centre_behind_face(DVec3::new(20.0, 0.0, 0.7), s, Some(DVec2::Y), car);
+        assert!((c - DVec3::new(20.9, 0.0, 0.7)).length() < 1e-12, "{c}");
+        // Line of sight at 30° to the heading: (L/2)cos 30° + (W/2)sin 30° along u.
+        let u = DVec2::from_angle(30f64.to_radians());
+        let p = (u * 10.0).extend(0.7);
+        let c = box_centre_behind_face(p, DVec3::ZERO, Some(DVec2::X), car);
+        let d = 2.25 * 30f64.to_radians().cos() + 0.9 * 0.5;
+        assert!((c - (u * (10.0 + d)).extend(0.7)).length() < 1e-12, "{c}");
+        // No heading: the rear or front is seen.
+        let c = box_centre_behind_face(DVec3::new(0.0, -8.0, 0.0), DVec3::ZERO, None, car);
+        assert!((c - DVec3::new(0.0, -10.25, 0.0)).length() < 1e-12, "{c}");
+    }
 
     #[test]
     fn dbscan_two_blobs_and_noise() {

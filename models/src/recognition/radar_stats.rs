@@ -28,7 +28,8 @@
 //!
 //! A reported object (`SensorData.moving_object` and `stationary_object`, positions in the sensor
 //! frame) is **real** when its position lies in a ground-truth moving object's box grown by
-//! `object_margin_m` (the radar reports the reflection centroid, not the box centre), else a
+//! `object_margin_m` (the radar estimates the box centre from the reflection centroid and the
+//! class's typical size, which differs from the true size), else a
 //! **ghost object** (counted per cycle, and per distinct tracking id). A ground-truth moving object
 //! is **visible** in a cycle when at least `min_target_detections` of the cycle's detections are
 //! real returns of it; a visible target not matched by any reported object is **missed** in that
