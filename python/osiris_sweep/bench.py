@@ -1,0 +1,94 @@
+"""`osiris-sweep bench`: the cost of running a variant as a Dask task instead of a bare
+`osiris run`, and the throughput of 1 vs 2 workers."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import statistics
+import subprocess
+import tempfile
+import time
+
+from . import runner
+from .spec import parse_spec, resolve_variants
+from .sweep import _make_cluster, variant_payload
+
+BINS = [0, 25, 50, 75, 100, 150]
+
+
+def _variants(osiris: str, rains: list[float]):
+    spec = parse_spec({
+        "sweep": {"name": "bench", "sensors": ["radar"], "range_bins_m": BINS},
+        "parameters": {"scenario.environment.rain_mm_h": rains},
+    })
+    return resolve_variants(spec, runner.builtin_scenario(osiris))
+
+
+def _bare(osiris: str, v) -> float:
+    with tempfile.TemporaryDirectory(prefix="osiris-sweep-bench-") as tmp:
+        path = os.path.join(tmp, "scenario.json")
+        with open(path, "w") as f:
+            json.dump(v.scenario, f, indent=1)
+        cmd, _ = runner.invocations(variant_payload(v, None), osiris, tmp, path)[0]
+        t0 = time.perf_counter()
+        subprocess.run(cmd, check=True, capture_output=True)
+        return time.perf_counter() - t0
+
+
+def main(osiris: str, repeats: int = 3) -> dict:
+    from distributed import Client
+
+    (v,) = _variants(osiris, [0.0])
+    runner.default_configs(osiris, ["radar"])  # package the FMU once, warm the page cache
+    kpi = True
+    bare = [_bare(osiris, v) for _ in range(repeats)]
+    payload = variant_payload(v, None)
+
+    with _make_cluster(1) as cluster, Client(cluster) as client:
+        client.submit(lambda: 0, pure=False).result()  # worker up
+        task = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            res = client.submit(runner.run_variant, payload, osiris, BINS, False, pure=False).result()
+            task.append(time.perf_counter() - t0)
+            kpi = kpi and bool(res["rows"])
+
+    four = [variant_payload(x, None) for x in _variants(osiris, [0.0, 4.0, 8.0, 16.0])]
+    throughput = {}
+    for n in (1, 2):
+        with _make_cluster(n) as cluster, Client(cluster) as client:
+            client.wait_for_workers(n)
+            client.run(lambda: 0)
+            t0 = time.perf_counter()
+            futs = [client.submit(runner.run_variant, p, osiris, BINS, False, pure=False) for p in four]
+            client.gather(futs)
+            throughput[n] = len(four) / ((time.perf_counter() - t0) / 60)
+
+    bare_med, task_med = statistics.median(bare), statistics.median(task)
+    line = {
+        "what": "sweep",
+        "bench": "sweep",
+        "scenario": "built-in default, 2 s, radar",
+        "repeats": repeats,
+        "bare_run_s": bare,
+        "task_s": task,
+        "bare_run_median_s": bare_med,
+        "task_median_s": task_med,
+        "task_overhead_fraction": (task_med - bare_med) / bare_med,
+        "target_task_overhead_fraction": 0.05,
+        "target_met": (task_med - bare_med) / bare_med < 0.05,
+        "throughput_variants": len(four),
+        "throughput_variants_per_min_1_worker": throughput[1],
+        "throughput_variants_per_min_2_workers": throughput[2],
+        "kpi_tables": kpi,
+        "machine": {
+            "logical_cpus": os.cpu_count(),
+            "load_avg_1min": round(os.getloadavg()[0], 2),
+            "python": platform.python_version(),
+            "osiris": osiris,
+        },
+    }
+    print(json.dumps(line, sort_keys=True))
+    return line
