@@ -151,6 +151,9 @@ def run_variant(variant: dict, osiris: str, range_bins_m: list[float], require_k
     Returns {"hash", "rows", "errors", "wall_s", "osiris_wall_s", "host", "pid"}; raises RunFailed with the
     tail of osiris' error output when a run fails, so that Dask retries the task."""
     t0 = time.perf_counter()
+    if not os.access(osiris, os.X_OK):
+        # The client's path does not exist on this worker (another machine): osiris on its PATH.
+        osiris = shutil.which("osiris") or osiris
     tmp = tempfile.mkdtemp(prefix=f"osiris-sweep-{variant['hash']}-")
     try:
         scenario_path = os.path.join(tmp, "scenario.json")

@@ -152,9 +152,8 @@ def set_path(doc: dict, path: str, value, *, key: str, optional: dict | None = N
             )
 
 
-def merge_dotted(doc: dict, path: str, value) -> None:
-    """Set a dotted path in a nested dict, creating tables on the way (sensor configuration)."""
-    parts = path.split(".")
+def merge_dotted(doc: dict, parts: list[str], value) -> None:
+    """Set a path (its parts) in a nested dict, creating tables on the way (sensor configuration)."""
     node = doc
     for part in parts[:-1]:
         if not isinstance(node.get(part), dict):
@@ -180,6 +179,7 @@ class Axis:
     """One swept parameter: grid values, or a random distribution."""
 
     key: str  # "scenario.road_users.0.x_m"
+    parts: list[str] | None = None  # the path after the prefix (a TOML key part may hold dots)
     values: list | None = None  # grid, or random choices
     low: float | None = None
     high: float | None = None
@@ -362,16 +362,22 @@ def parse_spec(doc: dict, source: Path | None = None) -> Spec:
     # dotted. Both mean the same.
     flat = {}
 
-    def walk(table, prefix):
+    def walk(table, prefix: tuple):
         for k, v in table.items():
-            name = f"{prefix}.{k}" if prefix else str(k)
+            name = (*prefix, str(k))
             if isinstance(v, dict) and not (v and set(v) <= {"min", "max", "choices"}):
                 walk(v, name)
             else:
                 flat[name] = v
 
-    walk(params, "")
-    axes = [_parse_axis(k, v, design) for k, v in flat.items()]
+    walk(params, ())
+    axes = []
+    for parts, v in flat.items():
+        if len(parts) == 1:  # a quoted "prefix.a.b" key
+            parts = tuple(parts[0].split("."))
+        axis = _parse_axis(".".join(parts), v, design)
+        axis.parts = list(parts[1:])
+        axes.append(axis)
     return Spec(
         name=name,
         sensors=list(sensors),
@@ -447,14 +453,15 @@ def resolve_variants(spec: Spec, base_scenario: dict, fmu_param_names: dict | No
     for point in design_points(spec):
         scenario = copy.deepcopy(base)
         fmu_params, config = {}, {}
-        for key, value in point.items():
-            prefix, path = key.split(".", 1)
-            if prefix == "scenario":
-                set_path(scenario, path, value, key=f"parameters.{key!r}", optional=_OPTIONAL_SCENARIO_KEYS)
-            elif prefix == "config":
-                merge_dotted(config, path, value)
+        for axis in spec.axes:
+            value = point[axis.key]
+            if axis.prefix == "scenario":
+                set_path(scenario, axis.path, value, key=f"parameters.{axis.key!r}",
+                         optional=_OPTIONAL_SCENARIO_KEYS)
+            elif axis.prefix == "config":
+                merge_dotted(config, axis.parts or axis.path.split("."), value)
             else:
-                fmu_params[path] = value
+                fmu_params[axis.path] = value
         h = variant_hash(spec.sensors, scenario, fmu_params, config, spec.max_frames)
         if h in seen:  # a random design over choices can draw the same point twice
             continue

@@ -224,3 +224,13 @@ def test_scenario_file_relative_to_spec(tmp_path):
     p = tmp_path / "s.toml"
     p.write_text("[sweep]\n[scenario]\nfile = 'base.json'\n")
     assert load_spec(p).scenario_file == tmp_path / "base.json"
+
+
+def test_config_keys_with_dots(base_scenario):
+    # effect names hold dots: a quoted TOML key part stays one key of the configuration
+    text = "[sweep]\n[parameters]\nconfig.effects.\"radar.rain\" = [true, false]\n'config.weather.rain_mm_h' = [4.0]\n"
+    vs = variants_of(text, base_scenario)
+    assert [v.config for v in vs] == [
+        {"effects": {"radar.rain": True}, "weather": {"rain_mm_h": 4.0}},
+        {"effects": {"radar.rain": False}, "weather": {"rain_mm_h": 4.0}},
+    ]
