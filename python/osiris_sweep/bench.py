@@ -26,25 +26,26 @@ def _variants(osiris: str, rains: list[float]):
     return resolve_variants(spec, runner.builtin_scenario(osiris))
 
 
-def _bare(osiris: str, v) -> float:
+def _bare(osiris: str, v, fmu_dir) -> float:
     with tempfile.TemporaryDirectory(prefix="osiris-sweep-bench-") as tmp:
         path = os.path.join(tmp, "scenario.json")
         with open(path, "w") as f:
             json.dump(v.scenario, f, indent=1)
-        cmd, _ = runner.invocations(variant_payload(v, None), osiris, tmp, path)[0]
+        cmd, _ = runner.invocations(variant_payload(v, None, fmu_dir), osiris, tmp, path)[0]
         t0 = time.perf_counter()
         subprocess.run(cmd, check=True, capture_output=True)
         return time.perf_counter() - t0
 
 
-def main(osiris: str, repeats: int = 3) -> dict:
+def main(osiris: str, repeats: int = 3, fmu_dir: str | None = None) -> dict:
     from distributed import Client
 
     (v,) = _variants(osiris, [0.0])
-    runner.default_configs(osiris, ["radar"])  # package the FMU once, warm the page cache
+    # As a sweep does: one preflight run packages the FMU, then every run gets --fmu-dir.
+    _, fmu_dir = runner.preflight(osiris, ["radar"], fmu_dir)
     kpi = True
-    bare = [_bare(osiris, v) for _ in range(repeats)]
-    payload = variant_payload(v, None)
+    bare = [_bare(osiris, v, fmu_dir) for _ in range(repeats)]
+    payload = variant_payload(v, None, fmu_dir)
 
     with _make_cluster(1) as cluster, Client(cluster) as client:
         client.submit(lambda: 0, pure=False).result()  # worker up
@@ -55,7 +56,7 @@ def main(osiris: str, repeats: int = 3) -> dict:
             task.append(time.perf_counter() - t0)
             kpi = kpi and bool(res["rows"])
 
-    four = [variant_payload(x, None) for x in _variants(osiris, [0.0, 4.0, 8.0, 16.0])]
+    four = [variant_payload(x, None, fmu_dir) for x in _variants(osiris, [0.0, 4.0, 8.0, 16.0])]
     throughput = {}
     for n in (1, 2):
         with _make_cluster(n) as cluster, Client(cluster) as client:

@@ -21,6 +21,10 @@ class BinaryNotFound(RuntimeError):
     pass
 
 
+class SetupFailed(RuntimeError):
+    """The osiris binary failed before any variant ran (scenario, model description, preflight)."""
+
+
 class RunFailed(RuntimeError):
     """`osiris run` failed (or its outputs are unusable) for one variant."""
 
@@ -58,7 +62,7 @@ def find_osiris(explicit: str | None = None) -> str:
 def _check_output(cmd: list[str], timeout: float = 120) -> str:
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
     if r.returncode != 0:
-        raise RuntimeError(f"`{' '.join(cmd)}` failed ({r.returncode}): {r.stderr.strip()[-2000:]}")
+        raise SetupFailed(f"`{' '.join(cmd)}` failed ({r.returncode}): {r.stderr.strip()[-2000:]}")
     return r.stdout
 
 
@@ -79,18 +83,20 @@ def fmu_parameter_names(osiris: str, sensor: str) -> set[str]:
     return names
 
 
-def default_configs(osiris: str, sensors: list[str]) -> dict:
-    """The default sensor configuration of each sensor: `resources/config.json` of the FMU that
-    `osiris run` uses (found by a one-frame run, which also packages a missing FMU once, before
-    the workers start)."""
+def preflight(osiris: str, sensors: list[str], fmu_dir: str | None = None) -> tuple[dict, str]:
+    """A one-frame `osiris run` of the sensors before the workers start. It packages missing or
+    stale FMUs once (without `--fmu-dir`, every `osiris run` checks them with cargo, which waits
+    while another cargo build holds the build folder), and yields the default configuration of
+    each sensor (`resources/config.json` of the FMU it ran) and the folder of those FMUs.
+
+    Returns ({sensor: default configuration}, FMU folder)."""
     with tempfile.TemporaryDirectory(prefix="osiris-sweep-preflight-") as tmp:
-        r = subprocess.run(
-            [osiris, "run", "--sensors", ",".join(sensors), "--max-frames", "1", "--quiet",
-             "--out", tmp],
-            capture_output=True, text=True, timeout=600,
-        )
+        cmd = [osiris, "run", "--sensors", ",".join(sensors), "--max-frames", "1", "--quiet", "--out", tmp]
+        if fmu_dir:
+            cmd += ["--fmu-dir", fmu_dir]
+        r = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
         if r.returncode != 0:
-            raise RuntimeError(f"osiris run (preflight) failed ({r.returncode}): {r.stderr.strip()[-2000:]}")
+            raise SetupFailed(f"`{' '.join(cmd)}` (preflight) failed ({r.returncode}): {r.stderr.strip()[-2000:]}")
         summary = json.loads(Path(tmp, "summary.json").read_text())
     out = {}
     for s in summary.get("sensors", []):
@@ -100,8 +106,9 @@ def default_configs(osiris: str, sensors: list[str]) -> dict:
                 out[kind] = json.loads(z.read("resources/config.json"))
     missing = [s for s in sensors if s not in out]
     if missing:
-        raise RuntimeError(f"preflight run reported no FMU for {missing}")
-    return out
+        raise SetupFailed(f"preflight run reported no FMU for {missing}")
+    dirs = {str(Path(s["fmu"]).parent) for s in summary["sensors"] if s.get("kind") in sensors}
+    return out, fmu_dir or (dirs.pop() if len(dirs) == 1 else None)
 
 
 def deep_merge(base: dict, over: dict) -> dict:
@@ -131,6 +138,8 @@ def invocations(variant: dict, osiris: str, out_root: str, scenario_path: str) -
         out = os.path.join(out_root, f"run{i}")
         cmd = [osiris, "run", "--scenario", scenario_path, "--sensors", ",".join(group),
                "--out", out, "--quiet", "--format", "osi"]
+        if variant.get("fmu_dir"):
+            cmd += ["--fmu-dir", variant["fmu_dir"]]
         if variant.get("max_frames"):
             cmd += ["--max-frames", str(variant["max_frames"])]
         for k in sorted(variant["fmu_params"]):

@@ -60,8 +60,9 @@ class Progress:
             self.stream.flush()
 
 
-def variant_payload(v: Variant, config_defaults: dict | None) -> dict:
+def variant_payload(v: Variant, config_defaults: dict | None, fmu_dir: str | None = None) -> dict:
     d = asdict(v)
+    d["fmu_dir"] = fmu_dir
     if v.config:
         d["config_defaults"] = config_defaults or {}
     return d
@@ -126,10 +127,12 @@ def run_sweep(
     workers: int = 2,
     quiet: bool = False,
     on_result=None,
+    fmu_dir: str | None = None,
 ) -> int:
     """Run (the unfinished part of) a sweep into `out_dir`. Returns the exit status: 0 when every
     variant succeeded, 1 when any failed. `on_result(client, cluster, record)` is called after
-    each stored result (tests use it to kill a worker mid-sweep)."""
+    each stored result (tests use it to kill a worker mid-sweep). `fmu_dir`: `osiris run --fmu-dir`
+    for every run (default: for a LocalCluster, the folder of the FMUs the preflight run used)."""
     from distributed import Client, as_completed
 
     out = Path(out_dir)
@@ -163,7 +166,11 @@ def run_sweep(
     if pending:
         # The preflight run packages missing FMUs once (not in parallel in every worker) and
         # yields the default configurations that config.* overrides are merged into.
-        defaults = runner.default_configs(osiris, spec.sensors) if (needs_config or not scheduler) else None
+        defaults, run_fmu_dir = None, fmu_dir
+        if needs_config or not scheduler:
+            defaults, found = runner.preflight(osiris, spec.sensors, fmu_dir)
+            if not scheduler:  # the workers share this machine's files
+                run_fmu_dir = found
         cluster = None if scheduler else _make_cluster(workers)
         client = Client(scheduler if scheduler else cluster)
         try:
@@ -172,7 +179,7 @@ def run_sweep(
             for v in pending:
                 key = f"osiris-variant-{v.hash}-{uuid.uuid4().hex[:6]}"
                 fut = client.submit(
-                    runner.run_variant, variant_payload(v, defaults), osiris, spec.range_bins_m,
+                    runner.run_variant, variant_payload(v, defaults, run_fmu_dir), osiris, spec.range_bins_m,
                     key=key, retries=1, pure=False,
                 )
                 by_key[fut.key] = v

@@ -61,7 +61,8 @@ def test_worker_killed_mid_sweep(osiris_bin, tmp_path):
         killed["pid"] = pid
 
     t0 = time.perf_counter()
-    rc = sweep.run_sweep(spec, out, osiris_bin, workers=2, quiet=True, on_result=kill_a_busy_worker)
+    rc = sweep.run_sweep(spec, out, osiris_bin, workers=2, quiet=True, on_result=kill_a_busy_worker,
+                         fmu_dir=os.environ.get("OSIRIS_FMU_DIR"))
     wall = time.perf_counter() - t0
     runs = pd.read_csv(out / "runs.csv")
     assert killed.get("pid"), "no worker was killed"
