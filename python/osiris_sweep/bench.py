@@ -26,6 +26,22 @@ def _variants(osiris: str, rains: list[float]):
     return resolve_variants(spec, runner.builtin_scenario(osiris))
 
 
+def _cpu_model() -> str | None:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or None
+
+
+def _osiris_version(osiris: str) -> str | None:
+    r = subprocess.run([osiris, "--version"], capture_output=True, text=True)
+    return r.stdout.split()[-1] if r.returncode == 0 and r.stdout.split() else None
+
+
 def _bare(osiris: str, v, fmu_dir) -> float:
     with tempfile.TemporaryDirectory(prefix="osiris-sweep-bench-") as tmp:
         path = os.path.join(tmp, "scenario.json")
@@ -44,16 +60,19 @@ def main(osiris: str, repeats: int = 3, fmu_dir: str | None = None) -> dict:
     # As a sweep does: one preflight run packages the FMU, then every run gets --fmu-dir.
     _, fmu_dir = runner.preflight(osiris, ["radar"], fmu_dir)
     kpi = True
-    bare = [_bare(osiris, v, fmu_dir) for _ in range(repeats)]
+    load_start = round(os.getloadavg()[0], 2)
     payload = variant_payload(v, None, fmu_dir)
-
+    bare, task, dispatch = [], [], []
     with _make_cluster(1) as cluster, Client(cluster) as client:
         client.submit(lambda: 0, pure=False).result()  # worker up
-        task = []
+        # Interleaved (bare, task, bare, task, ...): a change of the machine's load hits both alike.
         for _ in range(repeats):
+            bare.append(_bare(osiris, v, fmu_dir))
             t0 = time.perf_counter()
             res = client.submit(runner.run_variant, payload, osiris, BINS, False, pure=False).result()
             task.append(time.perf_counter() - t0)
+            # what the task adds around the osiris process: Dask round trip, scenario file, KPI tables
+            dispatch.append(task[-1] - res["osiris_wall_s"])
             kpi = kpi and bool(res["rows"])
 
     four = [variant_payload(x, None, fmu_dir) for x in _variants(osiris, [0.0, 4.0, 8.0, 16.0])]
@@ -78,6 +97,9 @@ def main(osiris: str, repeats: int = 3, fmu_dir: str | None = None) -> dict:
         "bare_run_median_s": bare_med,
         "task_median_s": task_med,
         "task_overhead_fraction": (task_med - bare_med) / bare_med,
+        "dispatch_overhead_s": dispatch,
+        "dispatch_overhead_median_s": statistics.median(dispatch),
+        "dispatch_overhead_fraction": statistics.median(dispatch) / bare_med,
         "target_task_overhead_fraction": 0.05,
         "target_met": (task_med - bare_med) / bare_med < 0.05,
         "throughput_variants": len(four),
@@ -85,10 +107,13 @@ def main(osiris: str, repeats: int = 3, fmu_dir: str | None = None) -> dict:
         "throughput_variants_per_min_2_workers": throughput[2],
         "kpi_tables": kpi,
         "machine": {
+            "cpu_model": _cpu_model(),
             "logical_cpus": os.cpu_count(),
-            "load_avg_1min": round(os.getloadavg()[0], 2),
+            "load_avg_1min": load_start,
+            "load_avg_1min_end": round(os.getloadavg()[0], 2),
             "python": platform.python_version(),
             "osiris": osiris,
+            "osiris_version": _osiris_version(osiris),
         },
     }
     print(json.dumps(line, sort_keys=True))
