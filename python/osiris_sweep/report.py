@@ -87,7 +87,7 @@ def write_report(path: Path, spec, records: list[dict]) -> None:
             ax.set_ylabel("detection probability")
             ax.set_ylim(-0.02, 1.02)
             ax.grid(alpha=0.3)
-            ax.legend(fontsize=7, loc="lower left")
+            ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=1, frameon=False)
         parts.append(_svg(fig))
         plt.close(fig)
         rows = []
