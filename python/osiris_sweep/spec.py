@@ -152,6 +152,50 @@ def set_path(doc: dict, path: str, value, *, key: str, optional: dict | None = N
             )
 
 
+_MISSING = object()
+
+
+def get_path(doc, path: str):
+    """The value at a dotted path, or _MISSING."""
+    node = doc
+    for part in path.split("."):
+        if isinstance(node, list) and part.isdigit() and int(part) < len(node):
+            node = node[int(part)]
+        elif isinstance(node, dict) and part in node:
+            node = node[part]
+        else:
+            return _MISSING
+    return node
+
+
+def _kind(v) -> str:
+    if isinstance(v, bool):
+        return "a boolean"
+    if isinstance(v, (int, float)):
+        return "a number"
+    if isinstance(v, str):
+        return "a string"
+    if isinstance(v, list):
+        return "a list"
+    if isinstance(v, dict):
+        return "a table"
+    return type(v).__name__
+
+
+def _check_value_types(axis: "Axis", current) -> None:
+    """Swept scenario values must have the type of the value they replace (a number for a number)."""
+    if current is _MISSING or current is None:
+        return
+    want = _kind(current)
+    candidates = axis.values if axis.values is not None else [axis.low, axis.high]
+    for v in candidates:
+        if _kind(v) != want:
+            raise SpecError(
+                f"parameters.{axis.key!r}: value {v!r} is {_kind(v)}, but the scenario's "
+                f"{axis.path} is {want} ({current!r})"
+            )
+
+
 def merge_dotted(doc: dict, parts: list[str], value) -> None:
     """Set a path (its parts) in a nested dict, creating tables on the way (sensor configuration)."""
     node = doc
@@ -440,6 +484,7 @@ def resolve_variants(spec: Spec, base_scenario: dict, fmu_param_names: dict | No
         if axis.prefix == "scenario":
             probe = copy.deepcopy(base)
             set_path(probe, axis.path, None, key=f"parameters.{axis.key!r}", optional=_OPTIONAL_SCENARIO_KEYS)
+            _check_value_types(axis, get_path(base, axis.path))
         if axis.prefix == "param" and fmu_param_names is not None:
             for s in spec.sensors:
                 names = fmu_param_names.get(s, set())

@@ -234,3 +234,17 @@ def test_config_keys_with_dots(base_scenario):
         {"effects": {"radar.rain": True}, "weather": {"rain_mm_h": 4.0}},
         {"effects": {"radar.rain": False}, "weather": {"rain_mm_h": 4.0}},
     ]
+
+
+def test_scenario_value_types_checked(base_scenario):
+    text = "[sweep]\n[parameters]\n'scenario.environment.rain_mm_h' = [0.0, 'heavy']\n"
+    with pytest.raises(SpecError) as e:
+        variants_of(text, base_scenario)
+    assert str(e.value) == (
+        "parameters.'scenario.environment.rain_mm_h': value 'heavy' is a string, but the scenario's "
+        "environment.rain_mm_h is a number (0.0)"
+    )
+    # integers for a real are fine; strings for a string (an enum) too
+    vs = variants_of("[sweep]\n[parameters]\n'scenario.environment.rain_mm_h' = [0, 16]\n"
+                     "'scenario.road_users.0.kind' = ['car', 'truck']\n", base_scenario)
+    assert len(vs) == 4
