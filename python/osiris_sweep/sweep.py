@@ -24,7 +24,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 from . import aggregate, runner
-from .spec import Spec, Variant, resolve_variants
+from .spec import Spec, SpecError, Variant, resolve_variants
 
 RESULT = "result.json"
 
@@ -139,9 +139,15 @@ def run_sweep(
     runs_dir = out / "runs"
     runs_dir.mkdir(parents=True, exist_ok=True)
 
-    base = (
-        json.loads(Path(spec.scenario_file).read_text()) if spec.scenario_file else runner.builtin_scenario(osiris)
-    )
+    if spec.scenario_file:
+        try:
+            base = json.loads(Path(spec.scenario_file).read_text())
+        except (OSError, json.JSONDecodeError) as e:
+            raise SpecError(f"scenario.file: cannot read {spec.scenario_file}: {e}") from None
+        if not isinstance(base, dict):
+            raise SpecError(f"scenario.file: {spec.scenario_file} is not a JSON object")
+    else:
+        base = runner.builtin_scenario(osiris)
     names = {s: runner.fmu_parameter_names(osiris, s) for s in spec.sensors}
     variants = resolve_variants(spec, base, names)
     needs_config = any(v.config for v in variants)

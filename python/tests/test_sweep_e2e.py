@@ -165,3 +165,16 @@ def test_binary_lookup_error(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     with pytest.raises(runner.BinaryNotFound, match=r"OSIRIS_BIN=.*missing.*target/release/osiris"):
         runner.find_osiris(None)
+
+
+def test_scenario_file_errors_and_use(osiris_bin, tmp_path, base_scenario):
+    spec = tmp_path / "f.toml"
+    spec.write_text("[sweep]\n[scenario]\nfile = 'missing.json'\n")
+    r = sweep_cli(spec, "--out", tmp_path / "o", "--osiris", osiris_bin)
+    assert r.returncode == 2 and "scenario.file: cannot read" in r.stderr
+    # a base scenario file with one road user: paths are checked against it, not the built-in one
+    base = dict(base_scenario, road_users=base_scenario["road_users"][:1])
+    (tmp_path / "base.json").write_text(json.dumps(base))
+    spec.write_text("[sweep]\n[scenario]\nfile = 'base.json'\n[parameters]\n'scenario.road_users.1.x_m' = [1.0]\n")
+    r = sweep_cli(spec, "--out", tmp_path / "o", "--osiris", osiris_bin)
+    assert r.returncode == 2 and "index 1 out of range: road_users has 1 entries" in r.stderr
