@@ -987,6 +987,14 @@ fn run(args: RunArgs) -> Result<()> {
         });
     }
 
+    let mut report = crate::report::ReportBuilder::new(source_name.clone());
+    for rs in &run_sensors {
+        report.add_sensor(
+            &rs.name,
+            Some(crate::report::SectionKind::from_label(&rs.label)),
+        );
+    }
+
     let bar = if args.quiet {
         ProgressBar::hidden()
     } else {
@@ -1026,10 +1034,12 @@ fn run(args: RunArgs) -> Result<()> {
             }
         }
         let done = ns(rec.time + rec.step_size);
+        let mut sd_decoded = None;
         if let Some(bytes) = &rec.outputs.sensor_data {
             let sd = osi3::SensorData::decode(bytes.as_slice())
                 .with_context(|| format!("decoding the SensorData of `{}`", rec.sensor_name))?;
             accumulate(s, &sd);
+            sd_decoded = Some(sd);
             if let Some(w) = o.sd.as_mut() {
                 w.write_raw(bytes)?;
             }
@@ -1037,10 +1047,14 @@ fn run(args: RunArgs) -> Result<()> {
                 w.write(c, bytes, done)?;
             }
         }
+        let mut pd_decoded = None;
         if let Some(bytes) = &rec.outputs.perception {
             // Check it decodes: a broken extension message is an FMU bug worth stopping for.
-            perception::PerceptionData::decode(bytes.as_slice())
-                .with_context(|| format!("decoding the PerceptionData of `{}`", rec.sensor_name))?;
+            pd_decoded = Some(
+                perception::PerceptionData::decode(bytes.as_slice()).with_context(|| {
+                    format!("decoding the PerceptionData of `{}`", rec.sensor_name)
+                })?,
+            );
             s.frames_with_perception_data += 1;
             if let Some((w, _, _)) = o.pd.as_mut() {
                 w.write_raw(bytes)?;
@@ -1048,6 +1062,24 @@ fn run(args: RunArgs) -> Result<()> {
             if let (Some(w), Some(c)) = (mcap.as_mut(), o.mcap_pd) {
                 w.write(c, bytes, done)?;
             }
+        }
+        if let Some(sd) = &sd_decoded {
+            let sv =
+                if rec.sensor_view.is_empty() {
+                    None
+                } else {
+                    Some(osi3::SensorView::decode(rec.sensor_view).with_context(|| {
+                        format!("decoding the SensorView of `{}`", rec.sensor_name)
+                    })?)
+                };
+            report.push(crate::report::ReportStep {
+                sensor: rec.sensor_name,
+                time_s: rec.time + rec.step_size,
+                sensor_view: sv.as_ref(),
+                sensor_data: sd,
+                perception: pd_decoded.as_ref(),
+                step_wall_ms: rec.step_wall_ms,
+            });
         }
         Ok(())
     };
@@ -1099,6 +1131,7 @@ fn run(args: RunArgs) -> Result<()> {
         None => None,
     };
 
+    let report_paths = report.write(&args.out)?;
     let text = summary_text(
         &source_name,
         &summary,
@@ -1113,6 +1146,8 @@ fn run(args: RunArgs) -> Result<()> {
         "end_time_s": summary.end_time,
         "wall_time_s": elapsed_s,
         "mcap_trace": mcap_path,
+        "objects_csv": report_paths.objects_csv.display().to_string(),
+        "frames_csv": report_paths.frames_csv.display().to_string(),
         "sensors": stats,
     });
     std::fs::write(
