@@ -7,7 +7,11 @@
 //!
 //! See docs/report.md for the column definitions and what each plot shows.
 
+mod html;
+mod images;
 pub mod kpi;
+mod plots;
+pub mod view;
 
 use std::path::{Path, PathBuf};
 
@@ -117,6 +121,48 @@ pub struct SensorReport {
     /// The last frame's detected objects (sensor frame), for the bird's-eye views of sensors
     /// without richer data.
     pub last_boxes: Vec<DetectedBox>,
+    /// Camera: evenly spaced ISP frames (every `camera_stride`-th SensorData frame).
+    camera_shots: Vec<CameraShot>,
+    camera_stride: usize,
+    /// The frame drawn as bird's-eye view: the one with the most ground-truth objects in view plus
+    /// detected objects (the first of equals; a radar frame with a range-Doppler map first).
+    bev: Option<BevShot>,
+    bev_score: Option<usize>,
+}
+
+/// Most camera frames kept while the run goes on (the strip shows [`CAMERA_STRIP_FRAMES`]).
+const CAMERA_KEEP_MAX: usize = 12;
+/// ISP frames in a camera section's strip.
+pub const CAMERA_STRIP_FRAMES: usize = 6;
+/// Most points of a LiDAR bird's-eye view.
+pub const BEV_MAX_POINTS: usize = 30_000;
+
+/// An ISP frame with the recognised objects' image boxes.
+#[derive(Debug, Clone)]
+struct CameraShot {
+    frame: usize,
+    time_s: f64,
+    image: perception::CameraImage,
+    /// (u_min, v_min, u_max, v_max) px and the ground-truth id.
+    boxes: Vec<([f64; 4], u64)>,
+}
+
+/// One frame's points, detections and boxes in the sensor frame.
+#[derive(Debug, Clone, Default)]
+struct BevShot {
+    frame: usize,
+    time_s: f64,
+    /// (x, y, value): m, m, intensity or range rate.
+    points: Vec<[f32; 3]>,
+    /// What `points[..][2]` is.
+    value_label: &'static str,
+    /// Radar detections: (x m, y m, range rate m/s).
+    detections: Vec<[f32; 3]>,
+    boxes: Vec<DetectedBox>,
+    truth: Vec<ObjectRow>,
+    /// Range-Doppler map as PNG (range bins bottom-up, Doppler bins left to right) and
+    /// (range bins, Doppler bins, range bin m, range-rate bin m/s).
+    rd_png: Option<(Vec<u8>, [f64; 4])>,
 }
 
 /// Output files of [`ReportBuilder::write`].
@@ -159,6 +205,10 @@ impl ReportBuilder {
             objects: Vec::new(),
             frames_with_ground_truth: 0,
             last_boxes: Vec::new(),
+            camera_shots: Vec::new(),
+            camera_stride: 1,
+            bev: None,
+            bev_score: None,
         });
     }
 
@@ -200,6 +250,49 @@ impl ReportBuilder {
         if row.ground_truth_in_fov.is_some() {
             s.frames_with_ground_truth += 1;
         }
+        if let Some(cam) = step.perception.and_then(|p| p.camera.as_ref())
+            && frame % s.camera_stride == 0
+            && let Some(img) = cam.image.iter().find(|i| {
+                i.kind() == perception::camera_image::Kind::Isp
+                    && i.sample_format() == perception::camera_image::SampleFormat::U8
+            })
+        {
+            s.camera_shots.push(CameraShot {
+                frame,
+                time_s,
+                image: img.clone(),
+                boxes: cam
+                    .object
+                    .iter()
+                    .map(|o| {
+                        (
+                            [
+                                o.box_u_min_px.unwrap_or(0.0),
+                                o.box_v_min_px.unwrap_or(0.0),
+                                o.box_u_max_px.unwrap_or(0.0),
+                                o.box_v_max_px.unwrap_or(0.0),
+                            ],
+                            o.object_id.unwrap_or(0),
+                        )
+                    })
+                    .collect(),
+            });
+            if s.camera_shots.len() > CAMERA_KEEP_MAX {
+                s.camera_stride *= 2;
+                let stride = s.camera_stride;
+                s.camera_shots.retain(|c| c.frame % stride == 0);
+            }
+        }
+        let score = objects.len() + boxes.len();
+        let has_rd = step
+            .perception
+            .and_then(|p| p.radar.as_ref())
+            .is_some_and(|r| r.range_doppler_map.is_some());
+        let lacks_rd = s.bev.as_ref().is_some_and(|b| b.rd_png.is_none());
+        if s.bev_score.is_none_or(|b| score > b) || (has_rd && lacks_rd) {
+            s.bev_score = Some(score);
+            s.bev = Some(bev_shot(frame, time_s, step, &boxes, &objects));
+        }
         s.frames.push(row);
         s.objects.extend(objects);
         s.last_boxes = boxes;
@@ -229,8 +322,8 @@ impl ReportBuilder {
         out
     }
 
-    /// Write `objects.csv` and `frames.csv` into `dir`.
-    pub fn write(&self, dir: &Path) -> Result<ReportPaths> {
+    /// Write `objects.csv`, `frames.csv` and, with `html`, `report.html` into `dir`.
+    pub fn write(&self, dir: &Path, html: bool) -> Result<ReportPaths> {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         let objects_csv = dir.join("objects.csv");
         std::fs::write(&objects_csv, self.objects_csv())
@@ -238,10 +331,91 @@ impl ReportBuilder {
         let frames_csv = dir.join("frames.csv");
         std::fs::write(&frames_csv, self.frames_csv())
             .with_context(|| format!("writing {}", frames_csv.display()))?;
+        let report_html = if html {
+            let path = dir.join("report.html");
+            std::fs::write(&path, html::page(self))
+                .with_context(|| format!("writing {}", path.display()))?;
+            Some(path)
+        } else {
+            None
+        };
         Ok(ReportPaths {
             objects_csv,
             frames_csv,
-            report_html: None,
+            report_html,
         })
     }
+}
+
+/// The bird's-eye-view content of one step.
+fn bev_shot(
+    frame: usize,
+    time_s: f64,
+    step: ReportStep<'_>,
+    boxes: &[DetectedBox],
+    truth: &[ObjectRow],
+) -> BevShot {
+    use osiris_models::frames::Spherical;
+    let mut shot = BevShot {
+        frame,
+        time_s,
+        value_label: "intensity",
+        boxes: boxes.to_vec(),
+        truth: truth.to_vec(),
+        ..BevShot::default()
+    };
+    let lidar = step.perception.and_then(|p| p.lidar.as_ref());
+    if let Some(l) = lidar.filter(|l| !l.x_m.is_empty()) {
+        let n = l.x_m.len().min(l.y_m.len());
+        let stride = n.div_ceil(BEV_MAX_POINTS).max(1);
+        let fmcw = l.range_rate_m_s.len() == n;
+        shot.value_label = if fmcw { "range rate m/s" } else { "intensity" };
+        shot.points = (0..n)
+            .step_by(stride)
+            .map(|i| {
+                let v = if fmcw {
+                    l.range_rate_m_s[i]
+                } else {
+                    l.intensity.get(i).copied().unwrap_or(0.0)
+                };
+                [l.x_m[i], l.y_m[i], v]
+            })
+            .collect();
+    } else if let Some(fd) = &step.sensor_data.feature_data {
+        let dets: Vec<&osi3::LidarDetection> =
+            fd.lidar_sensor.iter().flat_map(|d| &d.detection).collect();
+        let stride = dets.len().div_ceil(BEV_MAX_POINTS).max(1);
+        shot.points = dets
+            .iter()
+            .step_by(stride)
+            .filter_map(|d| {
+                let p = Spherical::from_osi(d.position.as_ref()?).to_cartesian();
+                Some([p.x as f32, p.y as f32, d.intensity.unwrap_or(0.0) as f32])
+            })
+            .collect();
+    }
+    if let Some(fd) = &step.sensor_data.feature_data {
+        shot.detections = fd
+            .radar_sensor
+            .iter()
+            .flat_map(|d| &d.detection)
+            .filter_map(|d| {
+                let p = Spherical::from_osi(d.position.as_ref()?).to_cartesian();
+                // OSI `radial_velocity` is the negative of the range rate (osiris models, OSI sign).
+                Some([
+                    p.x as f32,
+                    p.y as f32,
+                    -d.radial_velocity.unwrap_or(0.0) as f32,
+                ])
+            })
+            .collect();
+    }
+    if let Some(map) = step
+        .perception
+        .and_then(|p| p.radar.as_ref())
+        .and_then(|r| r.range_doppler_map.as_ref())
+    {
+        shot.rd_png = images::rd_png(map);
+    }
+    shot
 }
