@@ -1163,6 +1163,26 @@ fn run_writes_a_report_and_view_rebuilds_it_from_the_traces() {
     assert!(view_html.contains(&section_id("front-radar")));
     assert!(view_html.contains("data-kind=\"radar\""));
 
+    // --no-report: the tables, no page.
+    let tables_only = dir.path().join("tables-only");
+    run_cli(&[
+        "run",
+        "--fmu-dir",
+        fmus,
+        "--out",
+        tables_only.to_str().unwrap(),
+        "--max-frames",
+        "5",
+        "--sensors",
+        "radar",
+        "--no-report",
+        "--quiet",
+    ])
+    .unwrap();
+    assert!(!tables_only.join("report.html").exists());
+    assert!(tables_only.join("objects.csv").is_file() && tables_only.join("frames.csv").is_file());
+    assert!(summary_of(&tables_only)["report"].is_null());
+
     // Without ground truth: no object rows, and the report says so.
     let bare = dir.path().join("view-bare");
     run_cli(&[

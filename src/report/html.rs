@@ -217,8 +217,10 @@ fn camera_strip(h: &mut String, shots: &[CameraShot]) {
     };
     h.push_str(
         "<p class=\"note\">ISP frames; red boxes: the camera's recognised objects (PerceptionData \
-         camera objects, labelled with their ground-truth id). Ground-truth boxes are not projected \
-         into the image.</p>\n<div class=\"strip\">\n",
+         camera objects, labelled above with their ground-truth id); green dashed boxes: the ground \
+         truth in view (labelled below), projected with a pinhole camera of the SensorView's \
+         horizontal field of view — approximate: the lens distortion and principal-point offset \
+         are not known to the report.</p>\n<div class=\"strip\">\n",
     );
     for &i in &picks {
         let shot = &shots[i];
@@ -239,6 +241,23 @@ fn camera_strip(h: &mut String, shots: &[CameraShot]) {
             shot.frame,
             images::data_uri("image/jpeg", &jpeg)
         );
+        for (b, id) in &shot.truth {
+            let _ = write!(
+                h,
+                "<rect x=\"{:.1}\" y=\"{:.1}\" width=\"{:.1}\" height=\"{:.1}\" fill=\"none\" \
+                 stroke=\"#00c050\" stroke-dasharray=\"{:.1}\" stroke-width=\"{:.1}\"/><text x=\"{:.1}\" \
+                 y=\"{:.1}\" fill=\"#00c050\" font-size=\"{:.0}\">{id}</text>",
+                b[0],
+                b[1],
+                b[2] - b[0],
+                b[3] - b[1],
+                w as f64 / 100.0,
+                w as f64 / 400.0,
+                b[0],
+                (b[3] + w as f64 / 45.0).min(hgt as f64),
+                w as f64 / 45.0,
+            );
+        }
         for (b, id) in &shot.boxes {
             let _ = write!(
                 h,

@@ -44,6 +44,8 @@ pub struct ObjectRow {
     pub gt_position_m: [f64; 3],
     /// Ground-truth box length, width (m) and yaw relative to the sensor (rad).
     pub gt_box: [f64; 3],
+    /// Ground-truth box height, m.
+    pub gt_height_m: f64,
     pub detected: Option<DetectedMatch>,
 }
 
@@ -369,6 +371,7 @@ pub fn frame_rows(
                     dim.and_then(|d| d.width).unwrap_or(0.0),
                     r_s.x_axis.y.atan2(r_s.x_axis.x),
                 ],
+                gt_height_m: dim.and_then(|d| d.height).unwrap_or(0.0),
                 detected,
             });
         };

@@ -145,6 +145,54 @@ struct CameraShot {
     image: perception::CameraImage,
     /// (u_min, v_min, u_max, v_max) px and the ground-truth id.
     boxes: Vec<([f64; 4], u64)>,
+    /// Ground truth in view projected with a pinhole camera of the declared horizontal field of
+    /// view (approximate: the lens distortion is not known here): box and id.
+    truth: Vec<([f64; 4], u64)>,
+}
+
+/// Image box (u_min, v_min, u_max, v_max) px of an upright ground-truth box seen by a pinhole camera
+/// of horizontal field of view `fov` on a `width` × `height` image (principal point in the centre;
+/// u right, v down); `None` when a corner is not in front of the camera or the box is off the image.
+fn pinhole_box(o: &ObjectRow, fov: f64, width: f64, height: f64) -> Option<[f64; 4]> {
+    let f = 0.5 * width / (0.5 * fov).tan();
+    let [x, y, z] = o.gt_position_m;
+    let (l, w, yaw) = (0.5 * o.gt_box[0], 0.5 * o.gt_box[1], o.gt_box[2]);
+    let h = 0.5 * o.gt_height_m;
+    let (s, c) = yaw.sin_cos();
+    let mut b = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for (a, bb, dz) in [
+        (l, w, h),
+        (l, -w, h),
+        (-l, w, h),
+        (-l, -w, h),
+        (l, w, -h),
+        (l, -w, -h),
+        (-l, w, -h),
+        (-l, -w, -h),
+    ] {
+        let px = x + a * c - bb * s;
+        let py = y + a * s + bb * c;
+        let pz = z + dz;
+        if px < 0.1 {
+            return None;
+        }
+        let u = 0.5 * width - f * py / px;
+        let v = 0.5 * height - f * pz / px;
+        b = [b[0].min(u), b[1].min(v), b[2].max(u), b[3].max(v)];
+    }
+    let clipped = [
+        b[0].max(0.0),
+        b[1].max(0.0),
+        b[2].min(width),
+        b[3].min(height),
+    ];
+    (clipped[0] < clipped[2] && clipped[1] < clipped[3] && clipped.iter().all(|v| v.is_finite()))
+        .then_some(clipped)
 }
 
 /// One frame's points, detections and boxes in the sensor frame.
@@ -276,6 +324,23 @@ impl ReportBuilder {
                         )
                     })
                     .collect(),
+                truth: match step
+                    .sensor_view
+                    .and_then(kpi::ViewGeometry::of)
+                    .and_then(|g| g.fov_horizontal_rad)
+                {
+                    Some(fov) => {
+                        let (w, h) = (
+                            f64::from(img.width_px.unwrap_or(0)),
+                            f64::from(img.height_px.unwrap_or(0)),
+                        );
+                        objects
+                            .iter()
+                            .filter_map(|o| Some((pinhole_box(o, fov, w, h)?, o.gt_id)))
+                            .collect()
+                    }
+                    None => Vec::new(),
+                },
             });
             if s.camera_shots.len() > CAMERA_KEEP_MAX {
                 s.camera_stride *= 2;
