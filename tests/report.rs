@@ -368,3 +368,62 @@ fn without_ground_truth_there_are_no_object_rows() {
     assert_eq!(col(&fh, f, "detected_objects"), "2");
     assert_eq!(col(&fh, f, "step_wall_ms"), "");
 }
+
+#[test]
+fn report_html_shows_a_range_doppler_map_and_detections() {
+    use osiris_proto::perception;
+    let view = sensor_view();
+    let mut sd = sensor_data();
+    sd.feature_data = Some(osi3::FeatureData {
+        radar_sensor: vec![osi3::RadarDetectionData {
+            detection: vec![osi3::RadarDetection {
+                position: Some(osi3::Spherical3d {
+                    distance: Some(30.0),
+                    azimuth: Some(0.1),
+                    elevation: Some(0.0),
+                }),
+                radial_velocity: Some(3.0),
+                ..Default::default()
+            }],
+            ..Default::default()
+        }],
+        ..Default::default()
+    });
+    let (nr, nd) = (16u32, 8u32);
+    let pd = perception::PerceptionData {
+        radar: Some(perception::RadarPerception {
+            range_doppler_map: Some(perception::RangeDopplerMap {
+                range_bins: Some(nr),
+                doppler_bins: Some(nd),
+                range_bin_m: Some(0.5),
+                range_rate_bin_m_s: Some(0.25),
+                power_dbm: (0..nr * nd)
+                    .map(|i| -100.0 + (i % 7) as f32 * 5.0)
+                    .collect(),
+            }),
+            ..Default::default()
+        }),
+        ..Default::default()
+    };
+    let mut report = ReportBuilder::new("radar with a map");
+    report.push(ReportStep {
+        sensor: "front radar",
+        time_s: 0.0,
+        sensor_view: Some(&view),
+        sensor_data: &sd,
+        perception: Some(&pd),
+        step_wall_ms: None,
+    });
+    let dir = tempfile::tempdir().unwrap();
+    let paths = report.write(dir.path(), true).unwrap();
+    let html = std::fs::read_to_string(paths.report_html.unwrap()).unwrap();
+    assert!(
+        html.contains("<section id=\"sensor-front-radar\" class=\"sensor\" data-kind=\"radar\""),
+        "section"
+    );
+    assert!(html.contains("alt=\"range-Doppler map\" src=\"data:image/png;base64,"));
+    assert!(html.contains("1 detections"), "radar bird's-eye view");
+    // Self-contained.
+    assert!(!html.contains("src=\"http") && !html.contains("<link"));
+    assert!(html.contains("document.body.dataset.rendered"));
+}
