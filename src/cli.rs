@@ -186,6 +186,9 @@ pub enum Command {
         #[arg(long, value_name = "IMAGE")]
         image: Option<crate::export::CameraImageSel>,
     },
+    /// The report (report.html) and KPI tables (objects.csv, frames.csv) of a SensorData trace:
+    /// `.osi`, or every SensorData channel of an `.mcap`; written by `osiris run` or another tool.
+    View(crate::report::view::ViewArgs),
     /// Compare a model with a measurement campaign: paired residuals, metrics with tolerances,
     /// attribution of the misfit to named physical effects; writes summary.json and report.html.
     Consistency(crate::consistency::cli::ConsistencyArgs),
@@ -276,6 +279,9 @@ pub struct RunArgs {
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Write no report.html (objects.csv and frames.csv are still written).
+    #[arg(long)]
+    pub no_report: bool,
 }
 
 /// Run the command line.
@@ -316,6 +322,15 @@ fn consistency_protocol() -> Result<serde_json::Value> {
 pub fn main_with(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Run(args) => run(args),
+        Command::View(args) => {
+            let paths = crate::report::view::view(&args)?;
+            if let Some(p) = &paths.report_html {
+                outln!("report       {}", p.display());
+            }
+            outln!("objects.csv  {}", paths.objects_csv.display());
+            outln!("frames.csv   {}", paths.frames_csv.display());
+            Ok(())
+        }
         Command::Package {
             out,
             lib_dir,
@@ -529,6 +544,16 @@ fn sensor_list(args: &[SensorArg]) -> Vec<SensorKind> {
 /// when it is missing or older than its library (cargo rebuilds a stale library first; an up-to-date
 /// build is a no-op).
 pub fn ensure_fmus(fmu_dir: Option<PathBuf>, sensors: &[SensorKind]) -> Result<PathBuf> {
+    ensure_fmus_with(fmu_dir, sensors, &ProgressBar::hidden())
+}
+
+/// [`ensure_fmus`] showing what it packages on `bar` (its message; the `packaging` lines are
+/// printed above it).
+fn ensure_fmus_with(
+    fmu_dir: Option<PathBuf>,
+    sensors: &[SensorKind],
+    bar: &ProgressBar,
+) -> Result<PathBuf> {
     if let Some(dir) = fmu_dir {
         for kind in sensors {
             let p = dir.join(format!("{}.fmu", kind.name()));
@@ -545,10 +570,12 @@ pub fn ensure_fmus(fmu_dir: Option<PathBuf>, sensors: &[SensorKind]) -> Result<P
     let dir = package::default_fmu_dir();
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     for &kind in sensors {
+        bar.set_message(format!("building the {} FMU library if stale", kind.name()));
         let lib = package::fmu_library(kind, None, None)?;
         let fmu = dir.join(format!("{}.fmu", kind.name()));
         if !package::is_up_to_date(&fmu, &lib) {
-            eprintln!("packaging {}", fmu.display());
+            bar.set_message(format!("packaging {}", fmu.display()));
+            bar.suspend(|| eprintln!("packaging {}", fmu.display()));
             package::write_fmu(osiris_fmu::sensors::descriptor(kind), &lib, &fmu)?;
         }
     }
@@ -855,13 +882,23 @@ fn run(args: RunArgs) -> Result<()> {
         } => (start + step, *frames),
     };
 
+    // Progress (stderr; indicatif draws nothing when stderr is not a terminal): packaging, frames,
+    // report.
+    let bar = if args.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new_spinner()
+    };
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    bar.set_message("checking the FMUs");
+
     // Built-in FMUs (one per kind).
     let used_kinds: Vec<SensorKind> = SensorKind::ALL
         .into_iter()
         .filter(|k| run_sensors.iter().any(|s| s.builtin == Some(*k)))
         .collect();
     if !used_kinds.is_empty() {
-        let fmu_dir = ensure_fmus(args.fmu_dir.clone(), &used_kinds)?;
+        let fmu_dir = ensure_fmus_with(args.fmu_dir.clone(), &used_kinds, &bar)?;
         for kind in &used_kinds {
             let path = fmu_dir.join(format!("{}.fmu", kind.name()));
             let fmu = Fmu::load(&path).with_context(|| format!("loading {}", path.display()))?;
@@ -987,11 +1024,15 @@ fn run(args: RunArgs) -> Result<()> {
         });
     }
 
-    let bar = if args.quiet {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(n_frames as u64)
-    };
+    let mut report = crate::report::ReportBuilder::new(source_name.clone());
+    for rs in &run_sensors {
+        report.add_sensor(
+            &rs.name,
+            Some(crate::report::SectionKind::from_label(&rs.label)),
+        );
+    }
+
+    bar.set_length(n_frames as u64);
     bar.set_style(
         ProgressStyle::with_template("{spinner} {msg} [{bar:40}] {pos}/{len} frames ({eta})")
             .expect("valid template")
@@ -1026,10 +1067,12 @@ fn run(args: RunArgs) -> Result<()> {
             }
         }
         let done = ns(rec.time + rec.step_size);
+        let mut sd_decoded = None;
         if let Some(bytes) = &rec.outputs.sensor_data {
             let sd = osi3::SensorData::decode(bytes.as_slice())
                 .with_context(|| format!("decoding the SensorData of `{}`", rec.sensor_name))?;
             accumulate(s, &sd);
+            sd_decoded = Some(sd);
             if let Some(w) = o.sd.as_mut() {
                 w.write_raw(bytes)?;
             }
@@ -1037,10 +1080,14 @@ fn run(args: RunArgs) -> Result<()> {
                 w.write(c, bytes, done)?;
             }
         }
+        let mut pd_decoded = None;
         if let Some(bytes) = &rec.outputs.perception {
             // Check it decodes: a broken extension message is an FMU bug worth stopping for.
-            perception::PerceptionData::decode(bytes.as_slice())
-                .with_context(|| format!("decoding the PerceptionData of `{}`", rec.sensor_name))?;
+            pd_decoded = Some(
+                perception::PerceptionData::decode(bytes.as_slice()).with_context(|| {
+                    format!("decoding the PerceptionData of `{}`", rec.sensor_name)
+                })?,
+            );
             s.frames_with_perception_data += 1;
             if let Some((w, _, _)) = o.pd.as_mut() {
                 w.write_raw(bytes)?;
@@ -1048,6 +1095,24 @@ fn run(args: RunArgs) -> Result<()> {
             if let (Some(w), Some(c)) = (mcap.as_mut(), o.mcap_pd) {
                 w.write(c, bytes, done)?;
             }
+        }
+        if let Some(sd) = &sd_decoded {
+            let sv =
+                if rec.sensor_view.is_empty() {
+                    None
+                } else {
+                    Some(osi3::SensorView::decode(rec.sensor_view).with_context(|| {
+                        format!("decoding the SensorView of `{}`", rec.sensor_name)
+                    })?)
+                };
+            report.push(crate::report::ReportStep {
+                sensor: rec.sensor_name,
+                time_s: rec.time + rec.step_size,
+                sensor_view: sv.as_ref(),
+                sensor_data: sd,
+                perception: pd_decoded.as_ref(),
+                step_wall_ms: rec.step_wall_ms,
+            });
         }
         Ok(())
     };
@@ -1074,7 +1139,6 @@ fn run(args: RunArgs) -> Result<()> {
             summary
         }
     };
-    bar.finish_and_clear();
     let elapsed_s = started.elapsed().as_secs_f64();
     for sensor in &mut sensors {
         sensor.terminate()?;
@@ -1099,13 +1163,35 @@ fn run(args: RunArgs) -> Result<()> {
         None => None,
     };
 
-    let text = summary_text(
+    bar.set_style(ProgressStyle::with_template("{spinner} {msg}").expect("valid template"));
+    bar.set_message(if args.no_report {
+        "writing objects.csv, frames.csv"
+    } else {
+        "writing report.html, objects.csv, frames.csv"
+    });
+    let report_started = Instant::now();
+    let report_paths = report.write(&args.out, !args.no_report)?;
+    let report_s = report_started.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    let mut text = summary_text(
         &source_name,
         &summary,
         &stats,
         mcap_path.as_deref(),
         elapsed_s,
     );
+    text.push('\n');
+    if let Some(p) = &report_paths.report_html {
+        text.push_str(&format!(
+            "report                    {} ({report_s:.2} s)\n",
+            p.display()
+        ));
+    }
+    text.push_str(&format!(
+        "KPI tables                {}, {}\n",
+        report_paths.objects_csv.display(),
+        report_paths.frames_csv.display()
+    ));
     std::fs::write(args.out.join("summary.txt"), &text)?;
     let json = serde_json::json!({
         "source": source_name,
@@ -1113,6 +1199,10 @@ fn run(args: RunArgs) -> Result<()> {
         "end_time_s": summary.end_time,
         "wall_time_s": elapsed_s,
         "mcap_trace": mcap_path,
+        "report": report_paths.report_html.as_ref().map(|p| p.display().to_string()),
+        "report_wall_time_s": report_s,
+        "objects_csv": report_paths.objects_csv.display().to_string(),
+        "frames_csv": report_paths.frames_csv.display().to_string(),
         "sensors": stats,
     });
     std::fs::write(

@@ -8,12 +8,14 @@
 //! * [`bench`]: `osiris bench <what>` figures.
 //! * [`cli`]: the `osiris` command line.
 //! * [`export`]: PerceptionData frames as PCD/PLY point clouds and range-Doppler PNGs.
+//! * [`report`]: KPI tables and the self-contained `report.html` of a run or a trace.
 
 pub mod bench;
 pub mod cli;
 pub mod export;
 pub mod master;
 pub mod package;
+pub mod report;
 
 /// The consistency workflow (the `osiris-consistency` crate).
 pub use osiris_consistency as consistency;

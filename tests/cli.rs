@@ -1040,3 +1040,283 @@ fn scenario_fmu_is_a_source_for_the_radar_in_the_master() {
         .collect();
     assert!(tracked.contains(&100), "{tracked:?}");
 }
+
+/// The `id` of a report section (`sensor-` + the name, characters other than letters, digits, `-`
+/// and `_` as `-`).
+fn section_id(name: &str) -> String {
+    let slug: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '-'
+            }
+        })
+        .collect();
+    format!("id=\"sensor-{slug}\"")
+}
+
+/// CSV rows without the header, each without its first column (the sensor name).
+fn csv_rows_without_sensor(path: &Path) -> Vec<String> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split_once(',').unwrap().1.to_owned())
+        .collect()
+}
+
+#[test]
+fn run_writes_a_report_and_view_rebuilds_it_from_the_traces() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let fmus = fmu_dir().to_str().unwrap();
+    run_cli(&[
+        "run",
+        "--fmu-dir",
+        fmus,
+        "--out",
+        out.to_str().unwrap(),
+        "--max-frames",
+        "30",
+        "--format",
+        "both",
+        "--quiet",
+    ])
+    .unwrap();
+    let summary = summary_of(&out);
+    for key in ["report", "objects_csv", "frames_csv"] {
+        let p = summary[key]
+            .as_str()
+            .unwrap_or_else(|| panic!("{key}: {summary}"));
+        assert!(Path::new(p).is_file(), "{key}: {p}");
+    }
+    let text = std::fs::read_to_string(out.join("summary.txt")).unwrap();
+    assert!(text.contains("report.html"), "{text}");
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    for (name, kind) in [
+        ("front_camera", "camera"),
+        ("front_radar", "radar"),
+        ("front_lidar", "lidar"),
+    ] {
+        let tag = format!("{} class=\"sensor\" data-kind=\"{kind}\"", section_id(name));
+        assert!(html.contains(&tag), "{tag}");
+    }
+    // Self-contained: no external references.
+    for external in ["src=\"http", "href=\"http", "<link", "src=\"file"] {
+        assert!(!html.contains(external), "{external}");
+    }
+    assert!(
+        html.contains("data:image/jpeg;base64,"),
+        "camera frames embedded"
+    );
+    // The objects table has rows for every sensor, detected ones among them.
+    let objects = std::fs::read_to_string(out.join("objects.csv")).unwrap();
+    for name in ["front_camera", "front_radar", "front_lidar"] {
+        assert!(
+            objects
+                .lines()
+                .any(|l| l.starts_with(&format!("{name},")) && l.split(',').nth(8) == Some("1")),
+            "{name}: no detected ground truth in objects.csv"
+        );
+    }
+    let frames = std::fs::read_to_string(out.join("frames.csv")).unwrap();
+    let radar_frames: Vec<&str> = frames
+        .lines()
+        .filter(|l| l.starts_with("front_radar,"))
+        .collect();
+    assert!(!radar_frames.is_empty());
+    // The FMU step wall time is measured by the master.
+    assert!(
+        radar_frames.iter().all(|l| !l.ends_with(',')),
+        "{radar_frames:?}"
+    );
+
+    // `osiris view` on the run's .osi traces of the radar: the same KPI rows (but the wall time).
+    let view_out = dir.path().join("view-osi");
+    let sd = sd_trace(&out, "front_radar");
+    let sv = typed_trace(&out, "sv", "front_radar");
+    let pd = out.join("front_radar.perception.osi");
+    run_cli(&[
+        "view",
+        sd.to_str().unwrap(),
+        "--sensor-view",
+        sv.to_str().unwrap(),
+        "--perception",
+        pd.to_str().unwrap(),
+        "--out",
+        view_out.to_str().unwrap(),
+    ])
+    .unwrap();
+    let run_objects: Vec<String> = csv_rows_without_sensor(&out.join("objects.csv"))
+        .into_iter()
+        .zip(objects.lines().skip(1))
+        .filter(|(_, l)| l.starts_with("front_radar,"))
+        .map(|(r, _)| r)
+        .collect();
+    assert_eq!(
+        csv_rows_without_sensor(&view_out.join("objects.csv")),
+        run_objects
+    );
+    let view_html = std::fs::read_to_string(view_out.join("report.html")).unwrap();
+    assert!(view_html.contains(&section_id("front-radar")));
+    assert!(view_html.contains("data-kind=\"radar\""));
+
+    // --no-report: the tables, no page.
+    let tables_only = dir.path().join("tables-only");
+    run_cli(&[
+        "run",
+        "--fmu-dir",
+        fmus,
+        "--out",
+        tables_only.to_str().unwrap(),
+        "--max-frames",
+        "5",
+        "--sensors",
+        "radar",
+        "--no-report",
+        "--quiet",
+    ])
+    .unwrap();
+    assert!(!tables_only.join("report.html").exists());
+    assert!(tables_only.join("objects.csv").is_file() && tables_only.join("frames.csv").is_file());
+    assert!(summary_of(&tables_only)["report"].is_null());
+
+    // Without ground truth: no object rows, and the report says so.
+    let bare = dir.path().join("view-bare");
+    run_cli(&[
+        "view",
+        sd.to_str().unwrap(),
+        "--out",
+        bare.to_str().unwrap(),
+    ])
+    .unwrap();
+    assert_eq!(
+        std::fs::read_to_string(bare.join("objects.csv"))
+            .unwrap()
+            .lines()
+            .count(),
+        1
+    );
+    assert!(
+        std::fs::read_to_string(bare.join("report.html"))
+            .unwrap()
+            .contains("No ground truth")
+    );
+
+    // The .mcap: one section per SensorData channel, ground truth from the SensorView channels.
+    let view_mcap = dir.path().join("view-mcap");
+    run_cli(&[
+        "view",
+        mcap_trace(&out).to_str().unwrap(),
+        "--out",
+        view_mcap.to_str().unwrap(),
+    ])
+    .unwrap();
+    let html = std::fs::read_to_string(view_mcap.join("report.html")).unwrap();
+    for name in ["front_camera", "front_radar", "front_lidar"] {
+        assert!(html.contains(&section_id(name)), "{name}");
+    }
+    let mut mcap_rows = csv_rows_without_sensor(&view_mcap.join("objects.csv"));
+    let mut run_rows = csv_rows_without_sensor(&out.join("objects.csv"));
+    mcap_rows.sort();
+    run_rows.sort();
+    assert_eq!(mcap_rows, run_rows);
+
+    // Errors name the file (and the message), exit status 2.
+    let missing = dir.path().join("missing.osi");
+    let e = run_cli(&[
+        "view",
+        missing.to_str().unwrap(),
+        "--out",
+        bare.to_str().unwrap(),
+    ])
+    .unwrap_err();
+    assert!(format!("{e:#}").contains("missing.osi"), "{e:#}");
+    assert_eq!(osiris::cli::exit_code(&e), 2);
+    let e = run_cli(&[
+        "view",
+        sv.to_str().unwrap(),
+        "--out",
+        bare.to_str().unwrap(),
+    ])
+    .unwrap_err();
+    assert!(
+        format!("{e:#}").contains(&sv.display().to_string())
+            && format!("{e:#}").contains("SensorData"),
+        "{e:#}"
+    );
+    // A trace cut in its second message.
+    let bytes = std::fs::read(&sd).unwrap();
+    let first = u32::from_le_bytes(bytes[..4].try_into().unwrap()) as usize;
+    let broken = dir.path().join("broken.osi");
+    std::fs::write(&broken, &bytes[..4 + first + 10]).unwrap();
+    let e = run_cli(&[
+        "view",
+        broken.to_str().unwrap(),
+        "--out",
+        bare.to_str().unwrap(),
+    ])
+    .unwrap_err();
+    let msg = format!("{e:#}");
+    assert!(
+        msg.contains("broken.osi") && msg.contains("message 1"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn view_reports_a_foreign_sensor_trace() {
+    let dummy = osmp_dummy("OSMPDummySensor.fmu");
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let run = osiris_process(&[
+        "run",
+        "--fmu",
+        &format!("dummy={}", dummy.display()),
+        "--max-frames",
+        "20",
+        "--format",
+        "both",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains(&format!(
+        "{} class=\"sensor\" data-kind=\"other\"",
+        section_id("dummy")
+    )));
+    // The dummy reports the car 40 m ahead (id 100): its objects.csv rows say so.
+    let objects = std::fs::read_to_string(out.join("objects.csv")).unwrap();
+    assert!(
+        objects.lines().any(|l| l.starts_with("dummy,")
+            && l.split(',').nth(3) == Some("100")
+            && l.split(',').nth(8) == Some("1")),
+        "{objects}"
+    );
+    let view_out = dir.path().join("view");
+    let view = osiris_process(&[
+        "view",
+        mcap_trace(&out).to_str().unwrap(),
+        "--out",
+        view_out.to_str().unwrap(),
+    ]);
+    assert!(
+        view.status.success(),
+        "{}",
+        String::from_utf8_lossy(&view.stderr)
+    );
+    let html = std::fs::read_to_string(view_out.join("report.html")).unwrap();
+    assert!(
+        html.contains(&section_id("dummy")),
+        "sections of the foreign trace"
+    );
+    assert!(html.contains("<svg"));
+}

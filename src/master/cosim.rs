@@ -102,6 +102,9 @@ pub struct StepRecord<'a> {
     /// The encoded SensorView the sensor got (empty: none).
     pub sensor_view: &'a [u8],
     pub outputs: &'a StepOutputs,
+    /// Wall time of this sensor's `fmi2DoStep` (input and output transfer included), ms, measured
+    /// by the master around the step (with [`RunOptions::parallel`], inside the sensor's thread).
+    pub step_wall_ms: Option<f64>,
 }
 
 /// Totals of a [`run`].
@@ -221,7 +224,12 @@ where
                 }
             })
             .collect();
-        let results: Vec<Option<Result<StepOutputs>>> = if options.parallel && n > 1 {
+        let timed = |s: &mut OsmpSensor, sv: &[u8], ti: f64, hi: f64| {
+            let started = std::time::Instant::now();
+            let r = s.step(sv, ti, hi);
+            (r, 1e3 * started.elapsed().as_secs_f64())
+        };
+        let results: Vec<Option<(Result<StepOutputs>, f64)>> = if options.parallel && n > 1 {
             std::thread::scope(|scope| {
                 let handles: Vec<_> = sensors
                     .iter_mut()
@@ -229,7 +237,7 @@ where
                     .map(|(i, s)| {
                         let sv = view(i);
                         let step = steps[i];
-                        scope.spawn(move || step.map(|(ti, hi)| s.step(sv, ti, hi)))
+                        scope.spawn(move || step.map(|(ti, hi)| timed(s, sv, ti, hi)))
                     })
                     .collect();
                 handles
@@ -241,12 +249,14 @@ where
             sensors
                 .iter_mut()
                 .enumerate()
-                .map(|(i, s)| steps[i].map(|(ti, hi)| s.step(view(i), ti, hi)))
+                .map(|(i, s)| steps[i].map(|(ti, hi)| timed(s, view(i), ti, hi)))
                 .collect()
         };
 
         for (sensor_index, result) in results.into_iter().enumerate() {
-            let Some(result) = result else { continue };
+            let Some((result, wall_ms)) = result else {
+                continue;
+            };
             let (ti, hi) = steps[sensor_index].unwrap_or((frame.time, h));
             let outputs = result.map_err(|e| MasterError::Sensor {
                 frame_index,
@@ -266,6 +276,7 @@ where
                 frame_time: frame.time,
                 sensor_view: view(sensor_index),
                 outputs: &outputs,
+                step_wall_ms: Some(wall_ms),
             };
             sink(record).map_err(|e| MasterError::Sink {
                 frame_index,
