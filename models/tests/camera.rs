@@ -582,3 +582,125 @@ fn lens_config_errors_reach_the_sensor_with_the_key() {
     }
     let _ = LensConfig::default();
 }
+
+/// Fresnel transmittance and reflectance of a slab (index n, internal transmittance τ_n at normal
+/// incidence, τ(θ) = τ_n^{1/cos θt}) at incidence θ, unpolarised, incoherent multiple reflections:
+/// written out here from the Fresnel equations, independently of the model.
+fn slab(n: f64, tau_n: f64, cos_i: f64) -> (f64, f64) {
+    let sin_i = (1.0 - cos_i * cos_i).sqrt();
+    let sin_t = sin_i / n;
+    let cos_t = (1.0 - sin_t * sin_t).sqrt();
+    let rs = ((cos_i - n * cos_t) / (cos_i + n * cos_t)).powi(2);
+    let rp = ((n * cos_i - cos_t) / (n * cos_i + cos_t)).powi(2);
+    let tau = tau_n.powf(1.0 / cos_t);
+    let (mut t, mut r) = (0.0, 0.0);
+    for r1 in [rs, rp] {
+        let den = 1.0 - r1 * r1 * tau * tau;
+        t += 0.5 * (1.0 - r1).powi(2) * tau / den;
+        r += 0.5 * (r1 + (1.0 - r1).powi(2) * tau * tau * r1 / den);
+    }
+    (t, r)
+}
+
+/// Depends on: renderer, windshield, lens, pixel (linear HDR output). A windshield inclined 28°
+/// (normal (sin 28°, 0, cos 28°)) scales each pixel's linear signal by the slab transmittance at
+/// its ray's incidence; the dashboard's veil adds R(θ)·L_dash, the same L_dash everywhere, so the
+/// veil of two pixels is in the ratio of their reflectances.
+#[test]
+fn windshield_transmits_and_reflects_the_dashboard_per_the_fresnel_slab() {
+    let v = view(
+        vec![car(7, [20.0, 0.0, 0.75])],
+        Vec::new(),
+        sun(1.5 * PI, 30f64.to_radians()),
+        0.0,
+    );
+    let quiet = [
+        "camera.shot_noise",
+        "camera.read_noise",
+        "camera.dark_current",
+        "camera.dsnu",
+        "camera.prnu",
+        "camera.flare",
+        "camera.psf_blur",
+        // The veil is added before the lens: vignetting would scale it per pixel and the
+        // distortion move it off the pixel whose ray it was computed for.
+        "camera.vignetting",
+        "camera.distortion",
+    ];
+    let linear = |windshield: bool, off: &[&str]| -> (Vec<f64>, SensorConfig) {
+        let mut cam = serde_json::json!({
+            "exposure_s": 0.0005,
+            "emit": {"raw_hdr_linear": true, "raw_exposures": false, "raw_companded": false, "isp": false}
+        });
+        if windshield {
+            cam["windshield"] = serde_json::json!({});
+        }
+        let off: Vec<&str> = quiet.iter().chain(off).copied().collect();
+        let c = config(60.0, cam, &off);
+        let mut s = build_sensor(c.clone()).expect("camera");
+        let out = run(s.as_mut(), &v);
+        let img = image(&out, Kind::RawHdrLinear)[0];
+        let black = img.black_level_dn.unwrap_or(0.0);
+        (samples(img).iter().map(|d| d - black).collect(), c)
+    };
+    let (plain, c) = linear(false, &[]);
+    let (through, _) = linear(
+        true,
+        &[
+            "camera.windshield_refraction",
+            "camera.dashboard_reflection",
+        ],
+    );
+    let (veiled, _) = linear(
+        true,
+        &[
+            "camera.windshield_refraction",
+            "camera.windshield_transmission",
+        ],
+    );
+    let rays = lens_of(&c).ray_directions().to_vec();
+    let a = 28f64.to_radians();
+    let n = DVec3::new(a.sin(), 0.0, a.cos());
+    // Sky (top rows), car, road: pixels with signal well above zero.
+    let mut checked = 0;
+    for (x, y) in [
+        (160, 20),
+        (40, 30),
+        (290, 25),
+        (160, 125),
+        (60, 200),
+        (270, 210),
+    ] {
+        let i = y * W + x;
+        if plain[i] < 50.0 {
+            continue;
+        }
+        let cos_i = rays[i].as_dvec3().normalize().dot(n);
+        let (t, _) = slab(1.52, 0.88, cos_i);
+        let got = through[i] / plain[i];
+        assert!(
+            (got / t - 1.0).abs() < 0.02,
+            "pixel ({x}, {y}), incidence {:.1}°: signal ratio {got:.4}, slab T {t:.4}",
+            cos_i.acos().to_degrees()
+        );
+        checked += 1;
+    }
+    assert!(checked >= 4, "{checked} pixels checked");
+    // The veil: meas − plain = R(θ)·L_dash·gain for pixels whose mirror ray points down.
+    let veil = |x: usize, y: usize| {
+        let i = y * W + x;
+        let d = rays[i].as_dvec3().normalize();
+        (veiled[i] - plain[i], slab(1.52, 0.88, d.dot(n)).1)
+    };
+    // Two road pixels far apart, of the same CFA colour (even x, even y; the sky is bright enough
+    // to change the HDR merge's capture).
+    let (v1, r1) = veil(40, 214);
+    let (v2, r2) = veil(280, 150);
+    assert!(v1 > 0.0 && v2 > 0.0, "veil {v1} {v2}");
+    assert!(
+        ((v1 / v2) / (r1 / r2) - 1.0).abs() < 0.05,
+        "veil ratio {:.4}, reflectance ratio {:.4}",
+        v1 / v2,
+        r1 / r2
+    );
+}

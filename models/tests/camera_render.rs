@@ -227,6 +227,7 @@ fn render(setup: &Setup, sv: &osi3::SensorView, cfg: &SensorConfig) -> Rendered 
     let input = RenderInput {
         frame: &frame,
         rays: &rays,
+        ray_origins: None,
         width: setup.width,
         height: setup.height,
         response: &response,

@@ -111,6 +111,9 @@ const CASES: &[(&str, Bench)] = &[
     ("radar.extrinsic_error", Bench::Radar),
     ("radar.time_offset", Bench::Radar),
     ("camera.extrinsic_error", Bench::Camera),
+    ("camera.windshield_transmission", Bench::Camera),
+    ("camera.windshield_refraction", Bench::Camera),
+    ("camera.dashboard_reflection", Bench::Camera),
     ("camera.time_offset", Bench::Camera),
 ];
 
@@ -1024,7 +1027,9 @@ fn camera_config() -> SensorConfig {
         "height_px": C_H,
         "exposure_s": 0.01,
         "render": {"diffuse_bounces": 1, "bands": 8},
-        "emit": {"raw_exposures": true, "raw_hdr_linear": true, "raw_companded": true, "isp": true}
+        "emit": {"raw_exposures": true, "raw_hdr_linear": true, "raw_companded": true, "isp": true},
+        // A windshield (the defaults), so that its effects act.
+        "windshield": {}
     });
     c.camera = Some(serde_json::from_value(cam).expect("camera config"));
     c

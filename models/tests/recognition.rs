@@ -122,6 +122,19 @@ fn pos_of(o: &osi3::DetectedMovingObject) -> DVec3 {
     DVec3::new(p.x.unwrap(), p.y.unwrap(), p.z.unwrap())
 }
 
+/// Where a radar object's reported box centre belongs (fixed frame) when its reflection centroid
+/// is at `p`: the reported box (its `dimension`) placed behind the face the sensor at `s` sees,
+/// heading `h` (fixed frame, the target's velocity): `p + u·((L/2)|u·h| + (W/2)|u×h|)`, u the
+/// horizontal line of sight.
+fn box_centre_behind(o: &osi3::DetectedMovingObject, s: DVec3, p: DVec3, h: DVec3) -> DVec3 {
+    let d = o.base.as_ref().unwrap().dimension.unwrap();
+    let (l, w) = (d.length.unwrap(), d.width.unwrap());
+    let u = DVec3::new(p.x - s.x, p.y - s.y, 0.0).normalize();
+    let h = DVec3::new(h.x, h.y, 0.0).normalize();
+    let depth = 0.5 * l * u.dot(h).abs() + 0.5 * w * (u.x * h.y - u.y * h.x).abs();
+    p + u * depth
+}
+
 fn vel_of(o: &osi3::DetectedMovingObject) -> DVec3 {
     let p = o.base.as_ref().unwrap().velocity.unwrap();
     DVec3::new(p.x.unwrap(), p.y.unwrap(), p.z.unwrap())
@@ -595,10 +608,19 @@ fn radar_constant_velocity_target_tracked() {
     let err = (rel - (v_t - v_s)).truncate().length();
     eprintln!("radar CV velocity error {err:.3} m/s ({rel:?})");
     assert!(err < 0.3, "velocity error {err} ({rel:?})");
-    let p_expect = e
-        .sensor_pose
-        .inverse_transform_point(DVec3::new(40.0, -5.0, 0.5) + v_t * (dt * 59.0));
-    assert!((pos_of(o) - p_expect).truncate().length() < 0.5);
+    // The reported position is the box centre behind the reflecting face (OSI base.position).
+    let p_last = DVec3::new(40.0, -5.0, 0.5) + v_t * (dt * 59.0);
+    let p_expect = e.sensor_pose.inverse_transform_point(box_centre_behind(
+        o,
+        e.sensor_pose.position,
+        p_last,
+        v_t,
+    ));
+    assert!(
+        (pos_of(o) - p_expect).truncate().length() < 0.5,
+        "{:?} vs {p_expect:?}",
+        pos_of(o)
+    );
     let h = o.header.as_ref().unwrap();
     assert_eq!(h.ground_truth_id[0].value, Some(5));
     assert!(h.existence_probability.unwrap() > 0.95);
@@ -720,7 +742,12 @@ fn tracks_survive_a_rebased_fixed_frame() {
         rec.step(&e, &[detection_of(&e, p, v_t, 10.0, 1)], &mut out);
         if let Some(o) = out.first() {
             ids.push(o.header.as_ref().unwrap().tracking_id.unwrap().value);
-            let expect = e.sensor_pose.inverse_transform_point(p);
+            let expect = e.sensor_pose.inverse_transform_point(box_centre_behind(
+                o,
+                e.sensor_pose.position,
+                p,
+                v_t,
+            ));
             assert!(
                 (pos_of(o) - expect).truncate().length() < 0.5,
                 "t={t}: {:?} vs {expect:?}",

@@ -269,22 +269,32 @@ pub fn bench_camera(threads: Option<usize>, frames: usize) -> Value {
 }
 
 /// [`bench_camera`] on a given scene (tests use [`CameraBenchScene::SMALL`]): every effect at its
-/// default, plus the frame rate with `camera.motion_blur` off (`without_motion_blur`).
+/// default, plus the frame rate with `camera.motion_blur` off (`without_motion_blur`) and with a
+/// windshield (`with_windshield`: the default `camera.windshield`, its three effects on).
 pub fn bench_camera_on(scene: &CameraBenchScene, threads: Option<usize>, frames: usize) -> Value {
-    let mut v = bench_camera_with(scene, threads, frames, &[]);
-    let off = bench_camera_with(scene, threads, frames, &[("camera.motion_blur", false)]);
+    let mut v = bench_camera_with(scene, threads, frames, &[], false);
+    let off = bench_camera_with(
+        scene,
+        threads,
+        frames,
+        &[("camera.motion_blur", false)],
+        false,
+    );
+    let ws = bench_camera_with(scene, threads, frames, &[], true);
     if let Some(m) = v.as_object_mut() {
         m.insert("without_motion_blur".into(), off);
+        m.insert("with_windshield".into(), ws);
     }
     v
 }
 
-/// [`bench_camera_on`] with effect switches.
+/// [`bench_camera_on`] with effect switches, and with the default windshield when `windshield`.
 pub fn bench_camera_with(
     scene: &CameraBenchScene,
     threads: Option<usize>,
     frames: usize,
     switches: &[(&str, bool)],
+    windshield: bool,
 ) -> Value {
     let threads = threads.unwrap_or(2).max(1);
     let frames = frames.max(1);
@@ -292,7 +302,10 @@ pub fn bench_camera_with(
         Ok(p) => p,
         Err(e) => return json!({ "error": format!("thread pool: {e}") }),
     };
-    let (mut common, camera) = bench_config(scene);
+    let (mut common, mut camera) = bench_config(scene);
+    if windshield {
+        camera.windshield = Some(super::windshield::WindshieldConfig::default());
+    }
     for (k, on) in switches {
         common.effects.insert((*k).to_string(), *on);
     }

@@ -30,6 +30,7 @@ pub mod light;
 pub mod pixel;
 pub mod render;
 pub mod spectral;
+pub mod windshield;
 
 mod sensor;
 
@@ -53,6 +54,7 @@ pub fn effects() -> Vec<EffectInfo> {
         pixel::EFFECTS,
         hdr::EFFECTS,
         isp::EFFECTS,
+        windshield::EFFECTS,
     ]
     .concat()
 }

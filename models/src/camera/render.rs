@@ -297,6 +297,9 @@ pub struct RenderInput<'a> {
     /// Primary-ray directions in the sensor frame (x forward, y left, z up), unit, one per pixel,
     /// row-major (from [`super::lens::Lens::ray_directions`]).
     pub rays: &'a [Vec3],
+    /// Primary-ray origins in the sensor frame, one per pixel (the windshield's refraction,
+    /// `super::windshield`); `None`: every ray starts at the sensor origin.
+    pub ray_origins: Option<&'a [Vec3]>,
     pub width: usize,
     pub height: usize,
     pub response: &'a SpectralResponse,
@@ -419,6 +422,7 @@ struct Ctx<'a> {
     space: Swept<'a>,
     mats: &'a MaterialDb,
     rays: &'a [Vec3],
+    origins: Option<&'a [Vec3]>,
     width: usize,
     nl: usize,
     bands: bool,
@@ -775,6 +779,7 @@ impl Renderer {
             space,
             mats,
             rays: input.rays,
+            origins: input.ray_origins.filter(|o| o.len() == input.rays.len()),
             width: w,
             nl,
             bands: bands_mode,
@@ -1125,8 +1130,12 @@ impl Ctx<'_> {
             }
             let pose = &pose_cache.1;
             let d = pose.rotation * self.rays[it.pixel as usize].as_dvec3();
+            let o = match self.origins {
+                Some(o) => pose.transform_point(o[it.pixel as usize].as_dvec3()),
+                None => pose.position,
+            };
             s.rays.push(
-                Ray::new(pose.position, d)
+                Ray::new(o, d)
                     .with_t_max(self.max_distance_m)
                     .at_time(it.dt),
             );

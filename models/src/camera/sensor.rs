@@ -108,6 +108,10 @@ pub struct CameraConfig {
     pub recognition: CameraRecognitionConfig,
     #[serde(default)]
     pub emit: EmitConfig,
+    /// The windshield in front of the lens (absent: none; `camera.windshield_*` and
+    /// `camera.dashboard_reflection` then do nothing).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub windshield: Option<super::windshield::WindshieldConfig>,
 }
 
 /// Values in effect after the preset defaults.
@@ -169,6 +173,9 @@ impl CameraConfig {
         self.isp.validate()?;
         self.render.validate()?;
         self.recognition.validate()?;
+        if let Some(w) = &self.windshield {
+            w.validate()?;
+        }
         Ok(Resolved {
             width,
             height,
@@ -190,6 +197,8 @@ pub struct CameraChain {
     pub hdr: HdrPipeline,
     pub isp: Isp,
     pub cfa: Cfa,
+    /// The windshield's per-pixel plan (`None`: no windshield configured).
+    pub windshield: Option<super::windshield::WindshieldPlan>,
 }
 
 impl CameraChain {
@@ -222,6 +231,19 @@ impl CameraChain {
         let hdr = HdrPipeline::new(&resolved.hdr, effects)?;
         let cfa = pixel.cfa();
         let isp = Isp::new(&camera.isp, cfa, &response)?;
+        let windshield = camera.windshield.as_ref().map(|w| {
+            use super::windshield::{
+                DASHBOARD_REFLECTION, WINDSHIELD_REFRACTION, WINDSHIELD_TRANSMISSION,
+                WindshieldPlan,
+            };
+            WindshieldPlan::new(
+                w,
+                lens.ray_directions(),
+                effects.is_on(&WINDSHIELD_TRANSMISSION),
+                effects.is_on(&WINDSHIELD_REFRACTION),
+                effects.is_on(&DASHBOARD_REFLECTION),
+            )
+        });
         Ok(CameraChain {
             resolved,
             renderer,
@@ -231,6 +253,7 @@ impl CameraChain {
             hdr,
             isp,
             cfa,
+            windshield,
         })
     }
 }
@@ -417,6 +440,11 @@ impl Physics for CameraPhysics {
         let rin = RenderInput {
             frame,
             rays: chain.lens.ray_directions(),
+            ray_origins: chain
+                .windshield
+                .as_ref()
+                .map(|p| p.origins.as_slice())
+                .filter(|o| !o.is_empty()),
             width: w,
             height: h,
             response: &chain.response,
@@ -426,6 +454,9 @@ impl Physics for CameraPhysics {
             cycle: cycle.index,
         };
         chain.renderer.render(&rin, &mut b.render);
+        if let Some(ws) = &chain.windshield {
+            apply_windshield(ws, chain, frame, gt, &mut b.render.radiance);
+        }
         self.times.render_s = t.elapsed().as_secs_f64();
         self.times.render = b.render.stats;
 
@@ -656,5 +687,48 @@ impl Physics for CameraPhysics {
         self.chain.isp.reset();
         self.last_exposure_s = None;
         self.moving.clear();
+    }
+}
+
+/// The windshield on the rendered scene radiance: `L ← T·L + R·L_dash` per pixel and channel
+/// (`super::windshield`), with the dashboard's luminance from the SPCTRAL2 sun and sky of the frame
+/// folded with the channel responses.
+fn apply_windshield(
+    ws: &super::windshield::WindshieldPlan,
+    chain: &CameraChain,
+    frame: &crate::world::WorldFrame<'_>,
+    gt: &osiris_proto::osi3::GroundTruth,
+    radiance: &mut super::ChannelImage,
+) {
+    use crate::environment::sky::{ClearSkyInput, spectrl2};
+    let sun_global =
+        crate::environment::sun::sun_direction(gt.environmental_conditions.as_ref()).normalize();
+    let veil = if ws.dashboard_reflectance.iter().any(|r| *r > 0.0) && sun_global.z > 0.0 {
+        let cfg = chain.renderer.config();
+        let sky = spectrl2(&ClearSkyInput {
+            zenith_deg: 90.0 - sun_global.z.clamp(-1.0, 1.0).asin().to_degrees(),
+            day_of_year: cfg.day_of_year,
+            ..cfg.atmosphere
+        });
+        let sun_sensor = frame.sensor_pose.inverse_transform_vector(sun_global);
+        let (k_sun, k_sky) = ws.dashboard_coefficients(sun_sensor);
+        let centres = &chain.response.bands.centres_nm;
+        let spectrum: Vec<f64> = centres
+            .iter()
+            .map(|&l| k_sun * sky.dni_at(l) + k_sky * sky.dhi_at(l))
+            .collect();
+        chain.response.apply(&spectrum)
+    } else {
+        [0.0; super::CHANNELS]
+    };
+    for (c, plane) in radiance.planes.iter_mut().enumerate() {
+        let v = veil[c] as f32;
+        for ((l, t), r) in plane
+            .iter_mut()
+            .zip(&ws.transmittance)
+            .zip(&ws.dashboard_reflectance)
+        {
+            *l = *l * t + r * v;
+        }
     }
 }

@@ -371,6 +371,30 @@ pub fn parse_lambertian(name: &str) -> Option<f64> {
     (0.0..=100.0).contains(&p).then_some(p / 100.0)
 }
 
+/// Reflectance and transmittance of a dielectric slab in air (index `n`, absorption coefficient
+/// `alpha_per_m`, thickness `thickness_m`) at incidence `cos θ`: Fresnel at both faces per
+/// polarisation, internal transmittance `τ = exp(−α d / cos θt)`, incoherent multiple reflections
+/// `R = r + (1−r)²τ²r/(1 − r²τ²)`, `T = (1−r)²τ/(1 − r²τ²)`, averaged over s and p (unpolarised).
+pub fn dielectric_slab(n: f64, alpha_per_m: f64, thickness_m: f64, cos_theta: f64) -> SlabOptics {
+    let c = cos_theta.clamp(1e-9, 1.0);
+    let sin_t = (1.0 - c * c).sqrt() / n;
+    let cos_t = (1.0 - sin_t * sin_t).max(0.0).sqrt();
+    let tau = (-alpha_per_m * thickness_m / cos_t.max(1e-9)).exp();
+    let eps = Complex64::new(n * n, 0.0);
+    let theta = c.acos();
+    let (mut r_sum, mut t_sum) = (0.0, 0.0);
+    for pol in [Polarisation::Te, Polarisation::Tm] {
+        let r1 = fresnel_coefficient(eps, theta, pol).norm_sqr();
+        let denom = 1.0 - r1 * r1 * tau * tau;
+        r_sum += r1 + (1.0 - r1) * (1.0 - r1) * tau * tau * r1 / denom;
+        t_sum += (1.0 - r1) * (1.0 - r1) * tau / denom;
+    }
+    SlabOptics {
+        reflectance: 0.5 * r_sum,
+        transmittance: 0.5 * t_sum,
+    }
+}
+
 impl Material {
     /// An ideal Lambertian material of reflectance `rho` (0..=1) in every band. At mm-wave it is a
     /// smooth, lossless dielectric half-space of normal-incidence power reflectance `rho`
@@ -644,25 +668,8 @@ impl Material {
             Band::Nir905 => tr.k_905,
             Band::Nir1550 => tr.k_1550,
         };
-        let c = cos_theta.clamp(1e-9, 1.0);
-        let n = lobe.n;
-        let sin_t = (1.0 - c * c).sqrt() / n;
-        let cos_t = (1.0 - sin_t * sin_t).max(0.0).sqrt();
         let alpha = 4.0 * PI * k / (lambda * 1e-9);
-        let tau = (-alpha * tr.thickness_m / cos_t.max(1e-9)).exp();
-        let eps = Complex64::new(n * n, 0.0);
-        let theta = c.acos();
-        let (mut r_sum, mut t_sum) = (0.0, 0.0);
-        for pol in [Polarisation::Te, Polarisation::Tm] {
-            let r1 = fresnel_coefficient(eps, theta, pol).norm_sqr();
-            let denom = 1.0 - r1 * r1 * tau * tau;
-            r_sum += r1 + (1.0 - r1) * (1.0 - r1) * tau * tau * r1 / denom;
-            t_sum += (1.0 - r1) * (1.0 - r1) * tau / denom;
-        }
-        Some(SlabOptics {
-            reflectance: 0.5 * r_sum,
-            transmittance: 0.5 * t_sum,
-        })
+        Some(dielectric_slab(lobe.n, alpha, tr.thickness_m, cos_theta))
     }
 
     /// Transmittance through the material at `cos θ` in `band` (0 for opaque materials).
