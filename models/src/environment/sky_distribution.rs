@@ -189,7 +189,8 @@ impl CieSkyType {
     }
 }
 
-/// Grid of the view-factor table: normal elevations −90°…90° and azimuths from the sun 0°…180°.
+/// Grid of the view-factor table: the normal's z (= sin of its elevation) −1…1 and the cosine of
+/// its azimuth from the sun 1…−1, both uniform (a lookup needs no trigonometric function).
 const VF_EL: usize = 37;
 const VF_AZ: usize = 19;
 /// Quadrature of the hemisphere (midpoint rule in cos Z and azimuth).
@@ -250,9 +251,13 @@ impl SkyDistribution {
         let (ux, uy) = s.sun_axes();
         s.view = (0..VF_EL * VF_AZ)
             .map(|i| {
-                let el = (-90.0 + 180.0 * (i / VF_AZ) as f64 / (VF_EL - 1) as f64).to_radians();
-                let az = (180.0 * (i % VF_AZ) as f64 / (VF_AZ - 1) as f64).to_radians();
-                let n = (ux * az.cos() + uy * az.sin()) * el.cos() + DVec3::Z * el.sin();
+                let z = -1.0 + 2.0 * (i / VF_AZ) as f64 / (VF_EL - 1) as f64;
+                let ca = 1.0 - 2.0 * (i % VF_AZ) as f64 / (VF_AZ - 1) as f64;
+                let (h, sa) = (
+                    (1.0 - z * z).max(0.0).sqrt(),
+                    (1.0 - ca * ca).max(0.0).sqrt(),
+                );
+                let n = (ux * ca + uy * sa) * h + DVec3::Z * z;
                 k.iter().map(|(wk, d)| wk * n.dot(*d).max(0.0)).sum::<f64>() / PI
             })
             .collect();
@@ -293,16 +298,19 @@ impl SkyDistribution {
     }
 
     /// Sky irradiance on a surface of unit normal `n` relative to the DHI: V(n) (bilinear in the
-    /// tabulated normal elevation and azimuth from the sun; the isotropic sky: (1 + n_z)/2).
+    /// tabulated n_z and cosine of the normal's azimuth from the sun; the isotropic sky:
+    /// (1 + n_z)/2).
     pub fn view_factor(&self, n: DVec3) -> f64 {
         if self.cie.is_none() {
             return 0.5 * (1.0 + n.z.clamp(-1.0, 1.0));
         }
         let (ux, uy) = self.sun_axes();
-        let el = n.z.clamp(-1.0, 1.0).asin().to_degrees();
-        let az = n.dot(uy).atan2(n.dot(ux)).abs().to_degrees();
-        let fe = ((el + 90.0) / 180.0 * (VF_EL - 1) as f64).clamp(0.0, (VF_EL - 1) as f64);
-        let fa = (az / 180.0 * (VF_AZ - 1) as f64).clamp(0.0, (VF_AZ - 1) as f64);
+        let (a, b) = (n.dot(ux), n.dot(uy));
+        let h = (a * a + b * b).sqrt();
+        let ca = if h > 1e-12 { a / h } else { 1.0 };
+        let fe = ((n.z.clamp(-1.0, 1.0) + 1.0) / 2.0 * (VF_EL - 1) as f64)
+            .clamp(0.0, (VF_EL - 1) as f64);
+        let fa = ((1.0 - ca) / 2.0 * (VF_AZ - 1) as f64).clamp(0.0, (VF_AZ - 1) as f64);
         let (ie, ia) = ((fe as usize).min(VF_EL - 2), (fa as usize).min(VF_AZ - 2));
         let (te, ta) = (fe - ie as f64, fa - ia as f64);
         let v = |e: usize, a: usize| self.view[e * VF_AZ + a];
