@@ -1225,21 +1225,7 @@ fn accumulate(s: &mut SensorStats, sd: &osi3::SensorData) {
     s.moving_objects_detected_total += sd.moving_object.len();
     s.stationary_objects_detected_total += sd.stationary_object.len();
     s.max_moving_objects_in_a_frame = s.max_moving_objects_in_a_frame.max(sd.moving_object.len());
-    if let Some(fd) = &sd.feature_data {
-        s.feature_detections_total += fd
-            .radar_sensor
-            .iter()
-            .map(|d| d.detection.len())
-            .sum::<usize>()
-            + fd.lidar_sensor
-                .iter()
-                .map(|d| d.detection.len())
-                .sum::<usize>()
-            + fd.camera_sensor
-                .iter()
-                .map(|d| d.detection.len())
-                .sum::<usize>();
-    }
+    s.feature_detections_total += crate::report::kpi::feature_detections(sd);
     let headers = sd
         .moving_object
         .iter()

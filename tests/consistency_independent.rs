@@ -89,6 +89,29 @@ fn args_for(w: &Written, out: std::path::PathBuf) -> ConsistencyArgs {
     }
 }
 
+/// Writes a model configuration `json` as `name` into `w`'s campaign folder.
+fn write_model(w: &Written, name: &str, json: String) -> std::path::PathBuf {
+    let path = w.meta.with_file_name(name);
+    std::fs::write(&path, json).unwrap();
+    path
+}
+
+/// [`args_for`] re-simulating with the model configuration `model` and the effect switches.
+fn model_args(
+    w: &Written,
+    out: std::path::PathBuf,
+    model: std::path::PathBuf,
+    enable: &[&str],
+    disable: &[&str],
+) -> ConsistencyArgs {
+    ConsistencyArgs {
+        model: Some(model),
+        enable: ids(enable),
+        disable: ids(disable),
+        ..args_for(w, out)
+    }
+}
+
 fn ids(list: &[&str]) -> Vec<String> {
     list.iter().map(|s| s.to_string()).collect()
 }
@@ -505,25 +528,19 @@ fn closed_loop_yaw_misalignment_with_the_physical_radar_model() {
     .unwrap();
     let (mx, mz) = independent_truth::radar_mounting();
     let model = |name: &str, calibration: &str| {
-        let path = root.join("campaign").join(name);
-        std::fs::write(
-            &path,
+        write_model(
+            &w,
+            name,
             format!(
                 r#"{{"kind": "radar", "mode": "physical", "range_m": 100, "update_cycle_s": 0.05,
-                    "fov_horizontal_rad": 1.5708, "fov_vertical_rad": 0.1745,
-                    "mounting": {{"position_m": [{mx}, 0.0, {mz}]}}{calibration}}}"#
+                "fov_horizontal_rad": 1.5708, "fov_vertical_rad": 0.1745,
+                "mounting": {{"position_m": [{mx}, 0.0, {mz}]}}{calibration}}}"#
             ),
         )
-        .unwrap();
-        path
     };
-    let args =
-        |out: &str, model: std::path::PathBuf, enable: &[&str], disable: &[&str]| ConsistencyArgs {
-            model: Some(model),
-            enable: ids(enable),
-            disable: ids(disable),
-            ..args_for(&w, root.join(out))
-        };
+    let args = |out: &str, model: std::path::PathBuf, enable: &[&str], disable: &[&str]| {
+        model_args(&w, root.join(out), model, enable, disable)
+    };
     let t0 = std::time::Instant::now();
     let before = run_with(
         &args(
@@ -625,25 +642,19 @@ fn closed_loop_time_offset_with_the_physical_radar_model() {
     let hidden_ms = w.hidden_value.expect("the hidden clock offset, ms");
     let (mx, mz) = independent_truth::radar_mounting();
     let model = |name: &str, calibration: &str| {
-        let path = root.join("campaign").join(name);
-        std::fs::write(
-            &path,
+        write_model(
+            &w,
+            name,
             format!(
                 r#"{{"kind": "radar", "mode": "physical", "range_m": 120, "update_cycle_s": 0.05,
-                    "fov_horizontal_rad": 1.5708, "fov_vertical_rad": 0.1745,
-                    "mounting": {{"position_m": [{mx}, 0.0, {mz}]}}{calibration}}}"#
+                "fov_horizontal_rad": 1.5708, "fov_vertical_rad": 0.1745,
+                "mounting": {{"position_m": [{mx}, 0.0, {mz}]}}{calibration}}}"#
             ),
         )
-        .unwrap();
-        path
     };
-    let args =
-        |out: &str, model: std::path::PathBuf, enable: &[&str], disable: &[&str]| ConsistencyArgs {
-            model: Some(model),
-            enable: ids(enable),
-            disable: ids(disable),
-            ..args_for(&w, root.join(out))
-        };
+    let args = |out: &str, model: std::path::PathBuf, enable: &[&str], disable: &[&str]| {
+        model_args(&w, root.join(out), model, enable, disable)
+    };
     let t0 = std::time::Instant::now();
     let before = run_with(
         &args(
@@ -727,28 +738,22 @@ fn closed_loop_camera_yaw_misalignment_with_the_physical_camera_model() {
     let hidden = w.hidden_value.expect("the hidden yaw, deg");
     let (mx, mz) = independent_truth::camera_mounting();
     let model = |name: &str, calibration: &str| {
-        let path = root.join("campaign").join(name);
-        std::fs::write(
-            &path,
+        write_model(
+            &w,
+            name,
             format!(
                 r#"{{"kind": "camera", "mode": "physical", "range_m": 120, "update_cycle_s": 0.1,
-                    "fov_horizontal_rad": 1.0472, "fov_vertical_rad": 0.8,
-                    "mounting": {{"position_m": [{mx}, 0.0, {mz}]}},
-                    "effects": {{"camera.rolling_shutter": false, "camera.motion_blur": false}},
-                    "camera": {{"width_px": 320, "height_px": 240,
-                                "emit": {{"raw_exposures": false, "raw_hdr_linear": false, "raw_companded": false, "isp": false}}}}{calibration}}}"#
+                "fov_horizontal_rad": 1.0472, "fov_vertical_rad": 0.8,
+                "mounting": {{"position_m": [{mx}, 0.0, {mz}]}},
+                "effects": {{"camera.rolling_shutter": false, "camera.motion_blur": false}},
+                "camera": {{"width_px": 320, "height_px": 240,
+                            "emit": {{"raw_exposures": false, "raw_hdr_linear": false, "raw_companded": false, "isp": false}}}}{calibration}}}"#
             ),
         )
-        .unwrap();
-        path
     };
-    let args =
-        |out: &str, model: std::path::PathBuf, enable: &[&str], disable: &[&str]| ConsistencyArgs {
-            model: Some(model),
-            enable: ids(enable),
-            disable: ids(disable),
-            ..args_for(&w, root.join(out))
-        };
+    let args = |out: &str, model: std::path::PathBuf, enable: &[&str], disable: &[&str]| {
+        model_args(&w, root.join(out), model, enable, disable)
+    };
     let t0 = std::time::Instant::now();
     let before = run_with(&args("without", model("nominal.json", ""), &[], &[]), None).unwrap();
     let az = |s: &Summary| {

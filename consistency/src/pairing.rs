@@ -538,36 +538,19 @@ fn radar_frame(
                 ids: bool,
                 g: &TargetGeometry|
      -> Option<usize> {
-        let mut best: Option<(f64, usize)> = None;
-        for (i, d) in list.iter().enumerate() {
-            if used[i] {
-                continue;
-            }
-            let Some(p) = d.position else { continue };
+        pick_nearest(used, truth, ids, g.id, |i| {
+            let p = list[i].position?;
             let r = p.distance.unwrap_or(f64::NAN);
             let az = p.azimuth.unwrap_or(0.0).to_degrees();
-            let cost = if ids {
-                if truth[i] != Some(g.id) {
-                    continue;
-                }
-                (r - g.range_m).abs()
-            } else {
-                // Gate: 2 m + 5 % in range, 3° in azimuth.
-                let dr = (r - g.range_m) / (2.0 + 0.05 * g.range_m);
-                let da = (az - g.azimuth_deg) / 3.0;
-                let c = dr * dr + da * da;
-                if c.is_nan() || c > 1.0 {
-                    continue;
-                }
-                c
-            };
-            if best.is_none_or(|(b, _)| cost < b) {
-                best = Some((cost, i));
+            if ids {
+                return Some((r - g.range_m).abs());
             }
-        }
-        let i = best.map(|(_, i)| i)?;
-        used[i] = true;
-        Some(i)
+            // Gate: 2 m + 5 % in range, 3° in azimuth.
+            let dr = (r - g.range_m) / (2.0 + 0.05 * g.range_m);
+            let da = (az - g.azimuth_deg) / 3.0;
+            let c = dr * dr + da * da;
+            (!c.is_nan() && c <= 1.0).then_some(c)
+        })
     };
     for g in &geom.targets {
         out.counts.opportunities += 1;
@@ -628,6 +611,30 @@ fn radar_frame(
     }
     out.counts.meas_unassociated += m_used.iter().filter(|u| !**u).count();
     out.counts.sim_unassociated += s_used.iter().filter(|u| !**u).count();
+}
+
+/// The unused detection of the lowest `cost` (`None`: not a candidate), restricted to those whose
+/// ground-truth id is `id` when associating by ids; marks it used. The first of equal costs wins.
+fn pick_nearest(
+    used: &mut [bool],
+    truth: &[Option<u64>],
+    ids: bool,
+    id: u64,
+    cost: impl Fn(usize) -> Option<f64>,
+) -> Option<usize> {
+    let mut best: Option<(f64, usize)> = None;
+    for i in 0..used.len() {
+        if used[i] || (ids && truth[i] != Some(id)) {
+            continue;
+        }
+        let Some(c) = cost(i) else { continue };
+        if best.is_none_or(|(b, _)| c < b) {
+            best = Some((c, i));
+        }
+    }
+    let i = best.map(|(_, i)| i)?;
+    used[i] = true;
+    Some(i)
 }
 
 /// A camera detection: the direction of its angular box centre (azimuth, elevation; deg) and its
@@ -705,23 +712,11 @@ fn camera_frame(
                 ids: bool,
                 g: &TargetGeometry|
      -> Option<usize> {
-        let mut best: Option<(f64, usize)> = None;
-        for (i, (dir, _)) in list.iter().enumerate() {
-            let Some((az, el)) = *dir else { continue };
-            if used[i] || (ids && truth[i] != Some(g.id)) {
-                continue;
-            }
+        pick_nearest(used, truth, ids, g.id, |i| {
+            let (az, el) = list[i].0?;
             let cost = (az - g.azimuth_deg).hypot(el - g.elevation_deg);
-            if !ids && (cost.is_nan() || cost > 3.0) {
-                continue;
-            }
-            if best.is_none_or(|(b, _)| cost < b) {
-                best = Some((cost, i));
-            }
-        }
-        let i = best.map(|(_, i)| i)?;
-        used[i] = true;
-        Some(i)
+            (ids || !(cost.is_nan() || cost > 3.0)).then_some(cost)
+        })
     };
     for g in &geom.targets {
         out.counts.opportunities += 1;

@@ -501,27 +501,11 @@ sensor_data = "sd_measured.osi"
 pub fn biaxial_overlap(range_m: f64, r_on_m: f64, full_ratio: f64) -> f64 {
     let rt = range_m * (1.0 - 1.0 / full_ratio) / (2.0 * r_on_m);
     let rr = range_m * (1.0 + 1.0 / full_ratio) / (2.0 * r_on_m);
-    if rt + rr <= 1.0 {
+    if rt <= 0.0 {
         return 0.0;
     }
-    if rr - rt >= 1.0 {
-        return 1.0;
-    }
-    let a1 = rt
-        * rt
-        * ((1.0 + rt * rt - rr * rr) / (2.0 * rt))
-            .clamp(-1.0, 1.0)
-            .acos();
-    let a2 = rr
-        * rr
-        * ((1.0 + rr * rr - rt * rt) / (2.0 * rr))
-            .clamp(-1.0, 1.0)
-            .acos();
-    let a3 = 0.5
-        * ((rt + rr - 1.0) * (1.0 + rt - rr) * (1.0 - rt + rr) * (1.0 + rt + rr))
-            .max(0.0)
-            .sqrt();
-    ((a1 + a2 - a3) / (std::f64::consts::PI * rt * rt)).clamp(0.0, 1.0)
+    let area = osiris_models::lidar::signal::circle_overlap_area(rt, rr, 1.0);
+    (area / (std::f64::consts::PI * rt * rt)).clamp(0.0, 1.0)
 }
 
 /// Hidden effects of the LiDAR truth.

@@ -215,66 +215,52 @@ pub fn detected_boxes(sd: &osi3::SensorData, view_mounting: Option<&Pose>) -> Ve
     let convert = |p: DVec3| to_view.map_or(p, |t| t.transform_point(p));
     let rotate = |v: DVec3| to_view.map_or(v, |t| t.transform_vector(v));
     let yaw_offset = to_view.map_or(0.0, |t| t.rotation.x_axis.y.atan2(t.rotation.x_axis.x));
-    let header = |h: Option<&osi3::DetectedItemHeader>| {
-        (
-            h.and_then(|h| h.tracking_id).and_then(|i| i.value),
-            h.map(|h| h.ground_truth_id.iter().filter_map(|i| i.value).collect())
-                .unwrap_or_default(),
-            h.and_then(|h| h.existence_probability),
-        )
+    // One detected object (moving or stationary: the same header and base fields).
+    let detected = |h: Option<&osi3::DetectedItemHeader>,
+                    position: Option<&osi3::Vector3d>,
+                    dim: Option<&osi3::Dimension3d>,
+                    orientation: Option<&osi3::Orientation3d>,
+                    velocity: Option<&osi3::Vector3d>,
+                    stationary: bool| DetectedBox {
+        tracking_id: h.and_then(|h| h.tracking_id).and_then(|i| i.value),
+        ground_truth_ids: h
+            .map(|h| h.ground_truth_id.iter().filter_map(|i| i.value).collect())
+            .unwrap_or_default(),
+        position_m: position.map(|p| convert(vec3_from_osi(Some(p))).to_array()),
+        size: [
+            dim.and_then(|d| d.length).unwrap_or(0.0),
+            dim.and_then(|d| d.width).unwrap_or(0.0),
+            orientation.and_then(|o| o.yaw).unwrap_or(0.0) + yaw_offset,
+        ],
+        velocity_mps: velocity.map(|v| rotate(vec3_from_osi(Some(v))).to_array()),
+        existence_probability: h.and_then(|h| h.existence_probability),
+        stationary,
     };
-    let mut out = Vec::new();
-    for o in &sd.moving_object {
-        let (tracking_id, ground_truth_ids, existence_probability) = header(o.header.as_ref());
+    let moving = sd.moving_object.iter().map(|o| {
         let b = o.base.as_ref();
-        let dim = b.and_then(|b| b.dimension.as_ref());
-        out.push(DetectedBox {
-            tracking_id,
-            ground_truth_ids,
-            position_m: b
-                .and_then(|b| b.position.as_ref())
-                .map(|p| convert(vec3_from_osi(Some(p))).to_array()),
-            size: [
-                dim.and_then(|d| d.length).unwrap_or(0.0),
-                dim.and_then(|d| d.width).unwrap_or(0.0),
-                b.and_then(|b| b.orientation.as_ref())
-                    .and_then(|o| o.yaw)
-                    .unwrap_or(0.0)
-                    + yaw_offset,
-            ],
-            velocity_mps: b
-                .and_then(|b| b.velocity.as_ref())
-                .map(|v| rotate(vec3_from_osi(Some(v))).to_array()),
-            existence_probability,
-            stationary: false,
-        });
-    }
-    for o in &sd.stationary_object {
-        let (tracking_id, ground_truth_ids, existence_probability) = header(o.header.as_ref());
+        detected(
+            o.header.as_ref(),
+            b.and_then(|b| b.position.as_ref()),
+            b.and_then(|b| b.dimension.as_ref()),
+            b.and_then(|b| b.orientation.as_ref()),
+            b.and_then(|b| b.velocity.as_ref()),
+            false,
+        )
+    });
+    let stationary = sd.stationary_object.iter().map(|o| {
         let b = o.base.as_ref();
-        let dim = b.and_then(|b| b.dimension.as_ref());
-        out.push(DetectedBox {
-            tracking_id,
-            ground_truth_ids,
-            position_m: b
-                .and_then(|b| b.position.as_ref())
-                .map(|p| convert(vec3_from_osi(Some(p))).to_array()),
-            size: [
-                dim.and_then(|d| d.length).unwrap_or(0.0),
-                dim.and_then(|d| d.width).unwrap_or(0.0),
-                b.and_then(|b| b.orientation.as_ref())
-                    .and_then(|o| o.yaw)
-                    .unwrap_or(0.0)
-                    + yaw_offset,
-            ],
-            // A detected stationary object does not move: its velocity relative to the sensor is
-            // not reported.
-            velocity_mps: None,
-            existence_probability,
-            stationary: true,
-        });
-    }
-    out
+        // A detected stationary object does not move: its velocity relative to the sensor is
+        // not reported.
+        detected(
+            o.header.as_ref(),
+            b.and_then(|b| b.position.as_ref()),
+            b.and_then(|b| b.dimension.as_ref()),
+            b.and_then(|b| b.orientation.as_ref()),
+            None,
+            true,
+        )
+    });
+    moving.chain(stationary).collect()
 }
 
 /// Number of feature detections (radar, LiDAR, camera, ultrasonic) of `sd`.

@@ -263,24 +263,34 @@ fn sensor_view(frame: u64, h_sensor: f64, boxes: &[LoggedBox]) -> osi3::SensorVi
     }
 }
 
+/// The SensorData of `frame` (timestamp, sensor id, mounting) carrying `feature_data`.
+fn sensor_data(frame: u64, h_sensor: f64, feature_data: osi3::FeatureData) -> osi3::SensorData {
+    osi3::SensorData {
+        timestamp: stamp(frame * FRAME_DT_NS),
+        sensor_id: ident(SENSOR_ID),
+        mounting_position: Some(mounting(h_sensor)),
+        feature_data: Some(feature_data),
+        ..Default::default()
+    }
+}
+
 fn sensor_data_radar(
     frame: u64,
     h_sensor: f64,
     dets: Vec<osi3::RadarDetection>,
 ) -> osi3::SensorData {
-    osi3::SensorData {
-        timestamp: stamp(frame * FRAME_DT_NS),
-        sensor_id: ident(SENSOR_ID),
-        mounting_position: Some(mounting(h_sensor)),
-        feature_data: Some(osi3::FeatureData {
-            radar_sensor: vec![osi3::RadarDetectionData {
-                detection: dets,
-                ..Default::default()
-            }],
-            ..Default::default()
-        }),
+    let radar_sensor = vec![osi3::RadarDetectionData {
+        detection: dets,
         ..Default::default()
-    }
+    }];
+    sensor_data(
+        frame,
+        h_sensor,
+        osi3::FeatureData {
+            radar_sensor,
+            ..Default::default()
+        },
+    )
 }
 
 fn sensor_data_lidar(
@@ -288,19 +298,18 @@ fn sensor_data_lidar(
     h_sensor: f64,
     dets: Vec<osi3::LidarDetection>,
 ) -> osi3::SensorData {
-    osi3::SensorData {
-        timestamp: stamp(frame * FRAME_DT_NS),
-        sensor_id: ident(SENSOR_ID),
-        mounting_position: Some(mounting(h_sensor)),
-        feature_data: Some(osi3::FeatureData {
-            lidar_sensor: vec![osi3::LidarDetectionData {
-                detection: dets,
-                ..Default::default()
-            }],
-            ..Default::default()
-        }),
+    let lidar_sensor = vec![osi3::LidarDetectionData {
+        detection: dets,
         ..Default::default()
-    }
+    }];
+    sensor_data(
+        frame,
+        h_sensor,
+        osi3::FeatureData {
+            lidar_sensor,
+            ..Default::default()
+        },
+    )
 }
 
 fn spherical(p: DVec3) -> Option<osi3::Spherical3d> {
@@ -1909,20 +1918,19 @@ fn sensor_data_camera(
     dets: Vec<(osi3::CameraDetection, [osi3::CameraPoint; 2])>,
 ) -> osi3::SensorData {
     let (detection, points): (Vec<_>, Vec<_>) = dets.into_iter().unzip();
-    osi3::SensorData {
-        timestamp: stamp(frame * FRAME_DT_NS),
-        sensor_id: ident(SENSOR_ID),
-        mounting_position: Some(mounting(h_sensor)),
-        feature_data: Some(osi3::FeatureData {
-            camera_sensor: vec![osi3::CameraDetectionData {
-                detection,
-                point: points.into_iter().flatten().collect(),
-                ..Default::default()
-            }],
-            ..Default::default()
-        }),
+    let camera_sensor = vec![osi3::CameraDetectionData {
+        detection,
+        point: points.into_iter().flatten().collect(),
         ..Default::default()
-    }
+    }];
+    sensor_data(
+        frame,
+        h_sensor,
+        osi3::FeatureData {
+            camera_sensor,
+            ..Default::default()
+        },
+    )
 }
 
 /// Writes a camera detection campaign for `case` and `seed` into `dir`: 36 stations × 3 frames,

@@ -346,6 +346,22 @@ mod tests {
         sun_at(90.0 - zenith_deg, azimuth_deg)
     }
 
+    /// ∫ f(ω) dΩ over the upper hemisphere: midpoint rule in Z and azimuth (nz × na cells, weights
+    /// sin Z dZ dφ), independent of the module's equal-area quadrature.
+    fn hemisphere_integral(nz: usize, na: usize, f: impl Fn(DVec3) -> f64) -> f64 {
+        let (dz, da) = (FRAC_PI_2 / nz as f64, 2.0 * PI / na as f64);
+        let mut sum = 0.0;
+        for i in 0..nz {
+            let z = (i as f64 + 0.5) * dz;
+            for j in 0..na {
+                let a = (j as f64 + 0.5) * da;
+                let d = DVec3::new(z.sin() * a.cos(), z.sin() * a.sin(), z.cos());
+                sum += f(d) * z.sin() * dz * da;
+            }
+        }
+        sum
+    }
+
     /// The CIE clear sky (type 12) written out from CIE S 011 for this test:
     /// ℓ = (1 + 10(e^{−3χ} − e^{−3π/2}) + 0.45cos²χ)(1 − e^{−0.32/cos Z}) / ((…)(Z_s)·(1 − e^{−0.32})).
     fn clear_sky_closed_form(z: f64, chi: f64, zs: f64) -> f64 {
@@ -406,17 +422,7 @@ mod tests {
             (7, 20.0),
         ] {
             let s = SkyDistribution::cie(CieSkyType::standard(ty).unwrap(), sun_at(el, -70.0));
-            let (nz, na) = (360usize, 720usize);
-            let (dz, da) = (FRAC_PI_2 / nz as f64, 2.0 * PI / na as f64);
-            let mut sum = 0.0;
-            for i in 0..nz {
-                let z = (i as f64 + 0.5) * dz;
-                for j in 0..na {
-                    let a = (j as f64 + 0.5) * da;
-                    let d = DVec3::new(z.sin() * a.cos(), z.sin() * a.sin(), z.cos());
-                    sum += s.factor(d) * z.cos() * z.sin() * dz * da;
-                }
-            }
+            let sum = hemisphere_integral(360, 720, |d| s.factor(d) * d.z);
             assert!(
                 (sum / PI - 1.0).abs() < 0.01,
                 "type {ty}, sun {el}°: {}",
@@ -451,17 +457,7 @@ mod tests {
         assert!((towards + away) / 2.0 > 0.5, "{towards} {away}");
         // Against a direct integration of the same factor for a tilted normal.
         let n = DVec3::new(0.3, 0.5, 0.6).normalize();
-        let (nz, na) = (180usize, 360usize);
-        let (dz, da) = (FRAC_PI_2 / nz as f64, 2.0 * PI / na as f64);
-        let mut e = 0.0;
-        for i in 0..nz {
-            let z = (i as f64 + 0.5) * dz;
-            for j in 0..na {
-                let a = (j as f64 + 0.5) * da;
-                let d = DVec3::new(z.sin() * a.cos(), z.sin() * a.sin(), z.cos());
-                e += s.factor(d) * n.dot(d).max(0.0) * z.sin() * dz * da;
-            }
-        }
+        let e = hemisphere_integral(180, 360, |d| s.factor(d) * n.dot(d).max(0.0));
         let want = e / PI;
         assert!(
             (s.view_factor(n) - want).abs() < 0.02 * want,
