@@ -641,7 +641,7 @@ def rich_sensor_view() -> sv.SensorView:
         host_vehicle_id=ident(0),
         stationary_object=[pole],
         moving_object=[host, pedestrian, car],
-        traffic_sign=[tsign.TrafficSign(id=ident(77))],  # outside the subset
+        traffic_sign=[tsign.TrafficSign(id=ident(77))],
         lane_boundary=[boundary],
         lane=[ego_lane],
         environmental_conditions=conditions,
@@ -1215,14 +1215,13 @@ def test_rich_sensor_view_is_rich():
             rich_sensor_view,
             {
                 "osi3.SensorView.host_vehicle_data",
-                "osi3.GroundTruth.traffic_sign",
                 "osi3.GroundTruth.reference_line",
             },
         ),
         (
             "osi3.GroundTruth",
             lambda: rich_sensor_view().global_ground_truth,
-            {"osi3.GroundTruth.traffic_sign", "osi3.GroundTruth.reference_line"},
+            {"osi3.GroundTruth.reference_line"},
         ),
         ("osi3.SensorViewConfiguration", rich_sensor_view_configuration, set()),
         ("osi3.SensorData", rich_sensor_data, set()),
