@@ -17,6 +17,7 @@ use crate::physical::{Cycle, PhysicalSensor, Physics};
 use crate::recognition::camera::{
     CameraRecognition, CameraRecognitionConfig, CameraRecognitionInput,
 };
+use crate::recognition::traffic::{TrafficOutput, TrafficRecognition};
 use crate::sensor::{CommonConfig, ModelError, SensorKind, StepOutput};
 use crate::space::Ray;
 use crate::world::WorldFrame;
@@ -293,6 +294,10 @@ pub struct CameraPhysics {
     effects: Effects,
     chain: CameraChain,
     recognition: CameraRecognition,
+    /// Traffic lights, signs, road markings and lane boundaries (`crate::recognition::traffic`).
+    traffic: TrafficRecognition,
+    /// What `traffic` recognised this cycle.
+    traffic_out: TrafficOutput,
     /// Exposure of the previous frame (auto exposure), s.
     last_exposure_s: Option<f64>,
     /// Row readout time of the cycle (rolling shutter), s.
@@ -379,11 +384,14 @@ impl Physics for CameraPhysics {
     ) -> Result<CameraPhysics, ModelError> {
         let chain = CameraChain::plan(config, &camera, &effects)?;
         let recognition = CameraRecognition::new(&camera.recognition)?;
+        let traffic = TrafficRecognition::new(&camera.recognition.traffic)?;
         Ok(CameraPhysics {
             camera,
             effects,
             chain,
             recognition,
+            traffic,
+            traffic_out: TrafficOutput::default(),
             last_exposure_s: None,
             row_time_s: 0.0,
             moving: Vec::new(),
@@ -524,6 +532,11 @@ impl Physics for CameraPhysics {
         };
         self.recognition
             .step(&rec_in, &mut self.moving, &mut b.divp);
+        self.traffic.step(
+            &rec_in,
+            self.recognition.pixel_stats(),
+            &mut self.traffic_out,
+        );
         // The configured maximum detection range (`range_m`) bounds what recognition reports.
         let range_m = cycle.config.range_m;
         b.divp.retain(|o| {
@@ -676,14 +689,25 @@ impl Physics for CameraPhysics {
             .band_centre_nm
             .extend_from_slice(&chain.response.bands.centres_nm);
 
+        let t = &mut self.traffic_out;
+        camera_out.traffic_light.append(&mut t.light_records);
+        camera_out.traffic_sign.append(&mut t.sign_records);
+        camera_out.lane_boundary.append(&mut t.lane_records);
+        camera_out.traffic_light_state_misreads = Some(t.state_misreads);
+
         let sd = &mut out.sensor_data;
         sd.moving_object = moving;
+        sd.traffic_light.append(&mut t.traffic_light);
+        sd.traffic_sign.append(&mut t.traffic_sign);
+        sd.road_marking.append(&mut t.road_marking);
+        sd.lane_boundary.append(&mut t.lane_boundary);
         sd.feature_data = Some(feature_data);
         out.perception.camera = Some(camera_out);
     }
 
     fn reset(&mut self) {
         self.recognition.reset();
+        self.traffic_out.clear();
         self.chain.isp.reset();
         self.last_exposure_s = None;
         self.moving.clear();

@@ -108,6 +108,8 @@ pub struct CameraRecognitionConfig {
     /// typical length (guessed: 0.2, a 0.9 m overhang of a 4.5 m car; the `osiris:car` asset
     /// has its axles at ±0.30·l).
     pub overhang_fraction: f64,
+    /// Traffic lights, signs, road markings and lane boundaries ([`super::traffic`]).
+    pub traffic: super::traffic::TrafficRecognitionConfig,
 }
 
 impl Default for CameraRecognitionConfig {
@@ -129,6 +131,7 @@ impl Default for CameraRecognitionConfig {
             wheel_rows_fraction: 0.05,
             wheel_fill_max: 0.6,
             overhang_fraction: 0.2,
+            traffic: Default::default(),
         }
     }
 }
@@ -164,7 +167,7 @@ impl CameraRecognitionConfig {
         check("wheel_rows_fraction", self.wheel_rows_fraction, 0.0, 1.0)?;
         check("wheel_fill_max", self.wheel_fill_max, 0.0, 1.0)?;
         check("overhang_fraction", self.overhang_fraction, 0.0, 0.5)?;
-        Ok(())
+        self.traffic.validate()
     }
 
     /// Detection probability of an object with visible fraction `f`, box height `height_px` and
@@ -326,14 +329,14 @@ pub struct CameraRecognitionInput<'a> {
 
 /// Per-object statistics of the visible pixels of one frame.
 #[derive(Debug, Clone, Copy)]
-struct Stats {
-    count: u64,
-    u_min: usize,
-    u_max: usize,
-    v_min: usize,
-    v_max: usize,
-    lum_sum: f64,
-    depth_min: f32,
+pub(crate) struct Stats {
+    pub(crate) count: u64,
+    pub(crate) u_min: usize,
+    pub(crate) u_max: usize,
+    pub(crate) v_min: usize,
+    pub(crate) v_max: usize,
+    pub(crate) lum_sum: f64,
+    pub(crate) depth_min: f32,
 }
 
 impl Default for Stats {
@@ -559,48 +562,7 @@ impl CameraRecognition {
                         .ring_min_px
                         .max(self.config.ring_fraction * box_w.max(box_h))
                         .ceil() as usize;
-                    let (u0, u1) = (s.u_min.saturating_sub(ring), (s.u_max + ring).min(w - 1));
-                    let (v0, v1) = (s.v_min.saturating_sub(ring), (s.v_max + ring).min(h - 1));
-                    // Ring sums per side (above, below, left, right of the box): an outline
-                    // is seen where it contrasts with any part of its surroundings (sky above,
-                    // road below), which one mean over the whole ring would average away.
-                    let mut sum = [0.0f64; 4];
-                    let mut cnt = [0u64; 4];
-                    for v in v0..=v1 {
-                        for u in u0..=u1 {
-                            let inside =
-                                u >= s.u_min && u <= s.u_max && v >= s.v_min && v <= s.v_max;
-                            let i = v * w + u;
-                            if inside || aux.object_index[i] == k as u32 {
-                                continue;
-                            }
-                            let side = if v < s.v_min {
-                                0
-                            } else if v > s.v_max {
-                                1
-                            } else if u < s.u_min {
-                                2
-                            } else {
-                                3
-                            };
-                            sum[side] += l[i] as f64;
-                            cnt[side] += 1;
-                        }
-                    }
-                    let l_obj = s.lum_sum / s.count as f64;
-                    let min_side = (ring as u64).max(4);
-                    let mut best = f64::NAN;
-                    for side in 0..4 {
-                        if cnt[side] < min_side {
-                            continue;
-                        }
-                        let l_bg = sum[side] / cnt[side] as f64;
-                        let c = (l_obj - l_bg) / l_bg.max(1e-9 * l_obj.abs().max(1e-30));
-                        if best.is_nan() || c.abs() > best.abs() {
-                            best = c;
-                        }
-                    }
-                    best
+                    ring_contrast(aux, l, w, h, k as u32, s, ring)
                 }
                 None => f64::NAN,
             };
@@ -734,6 +696,11 @@ impl CameraRecognition {
         }
     }
 
+    /// Per object index of the last step's pixel mask: its visible-pixel statistics.
+    pub(crate) fn pixel_stats(&self) -> &[Stats] {
+        &self.stats
+    }
+
     pub fn reset(&mut self) {
         self.stats.clear();
         self.measurements.clear();
@@ -795,6 +762,61 @@ fn expected_pixels(lens: &dyn CameraLens, centre_s: DVec3, rot_s: DMat3, half: D
                 .count() as u64
         })
         .sum()
+}
+
+/// Weber contrast of an object's mean luminance against the side of a ring of `ring` px around its
+/// visible box (above, below, left, right, each without the object's pixels) whose mean differs
+/// most (NaN when no side has enough pixels): step 3 of the module doc.
+pub(crate) fn ring_contrast(
+    aux: PixelObjects<'_>,
+    l: &[f32],
+    w: usize,
+    h: usize,
+    k: u32,
+    s: &Stats,
+    ring: usize,
+) -> f64 {
+    let (u0, u1) = (s.u_min.saturating_sub(ring), (s.u_max + ring).min(w - 1));
+    let (v0, v1) = (s.v_min.saturating_sub(ring), (s.v_max + ring).min(h - 1));
+    // Ring sums per side (above, below, left, right of the box): an outline
+    // is seen where it contrasts with any part of its surroundings (sky above,
+    // road below), which one mean over the whole ring would average away.
+    let mut sum = [0.0f64; 4];
+    let mut cnt = [0u64; 4];
+    for v in v0..=v1 {
+        for u in u0..=u1 {
+            let inside = u >= s.u_min && u <= s.u_max && v >= s.v_min && v <= s.v_max;
+            let i = v * w + u;
+            if inside || aux.object_index[i] == k {
+                continue;
+            }
+            let side = if v < s.v_min {
+                0
+            } else if v > s.v_max {
+                1
+            } else if u < s.u_min {
+                2
+            } else {
+                3
+            };
+            sum[side] += l[i] as f64;
+            cnt[side] += 1;
+        }
+    }
+    let l_obj = s.lum_sum / s.count as f64;
+    let min_side = (ring as u64).max(4);
+    let mut best = f64::NAN;
+    for side in 0..4 {
+        if cnt[side] < min_side {
+            continue;
+        }
+        let l_bg = sum[side] / cnt[side] as f64;
+        let c = (l_obj - l_bg) / l_bg.max(1e-9 * l_obj.abs().max(1e-30));
+        if best.is_nan() || c.abs() > best.abs() {
+            best = c;
+        }
+    }
+    best
 }
 
 /// The OSI detected object (sensor frame).

@@ -17,6 +17,7 @@ pub mod lidar;
 pub mod radar;
 pub mod radar_stats;
 pub mod tracking;
+pub mod traffic;
 
 use glam::DVec3;
 
