@@ -568,7 +568,82 @@ fn rich_sensor_data() -> SensorData {
         moving_object_header: Some(entity_header(0, Dq::Available)),
         moving_object: moving,
         traffic_sign_header: Some(entity_header(1, Dq::NotAvailable)),
+        traffic_sign: vec![rich_detected_traffic_sign()],
+        traffic_light_header: Some(entity_header(3, Dq::Available)),
+        traffic_light: vec![DetectedTrafficLight {
+            header: Some(DetectedItemHeader {
+                tracking_id: Some(id(78)),
+                ground_truth_id: vec![id(78)],
+                ..Default::default()
+            }),
+            base: Some(BaseStationary {
+                dimension: Some(d3(0.05, 0.2, 0.2)),
+                position: Some(v3(59.0, 3.1, 4.0)),
+                ..Default::default()
+            }),
+            candidate: vec![detected_traffic_light::CandidateTrafficLight {
+                probability: Some(1.0),
+                classification: Some(traffic_light::Classification {
+                    color: Some(traffic_light::classification::Color::Red as i32),
+                    mode: Some(traffic_light::classification::Mode::Off as i32),
+                    counter: Some(0.0),
+                    ..Default::default()
+                }),
+            }],
+            ..Default::default()
+        }],
+        road_marking_header: Some(entity_header(4, Dq::AvailableReduced)),
+        road_marking: vec![DetectedRoadMarking {
+            header: Some(DetectedItemHeader {
+                tracking_id: Some(id(79)),
+                ground_truth_id: vec![id(79)],
+                ..Default::default()
+            }),
+            base: Some(BaseStationary {
+                position: Some(v3(49.0, 0.1, -1.5)),
+                ..Default::default()
+            }),
+            candidate: vec![detected_road_marking::CandidateRoadMarking {
+                probability: Some(0.9),
+                classification: Some(road_marking::Classification {
+                    r#type: Some(road_marking::classification::Type::GenericLine as i32),
+                    monochrome_color: Some(road_marking::classification::Color::White as i32),
+                    ..Default::default()
+                }),
+            }],
+            ..Default::default()
+        }],
         lane_boundary_header: Some(entity_header(2, Dq::Unknown)),
+        lane_boundary: vec![DetectedLaneBoundary {
+            header: Some(DetectedItemHeader {
+                tracking_id: Some(id(300)),
+                ground_truth_id: vec![id(300)],
+                existence_probability: Some(0.75),
+                ..Default::default()
+            }),
+            candidate: vec![detected_lane_boundary::CandidateLaneBoundary {
+                probability: Some(1.0),
+                classification: Some(lane_boundary::Classification {
+                    r#type: Some(lane_boundary::classification::Type::DashedLine as i32),
+                    color: Some(lane_boundary::classification::Color::White as i32),
+                    ..Default::default()
+                }),
+            }],
+            boundary_line: vec![
+                lane_boundary::BoundaryPoint {
+                    position: Some(v3(6.0, 1.75, -1.5)),
+                    width: Some(0.12),
+                    ..Default::default()
+                },
+                lane_boundary::BoundaryPoint {
+                    position: Some(v3(8.0, 1.74, -1.5)),
+                    dash: Some(lane_boundary::boundary_point::Dash::End as i32),
+                    ..Default::default()
+                },
+            ],
+            boundary_line_confidences: vec![0.9, 0.0],
+            ..Default::default()
+        }],
         feature_data: Some(FeatureData {
             version: Some(version()),
             radar_sensor: vec![radar],
@@ -612,6 +687,55 @@ fn rich_sensor_data() -> SensorData {
         }),
         system_time: Some(ts(-3, 999_999_999)),
         ..Default::default()
+    }
+}
+
+/// The detected speed-limit sign of [`rich_sensor_data`] (mirrored in the Python test).
+fn rich_detected_traffic_sign() -> DetectedTrafficSign {
+    use detected_traffic_sign::{DetectedMainSign, DetectedSupplementarySign, detected_main_sign};
+    use traffic_sign::{main_sign, supplementary_sign};
+    DetectedTrafficSign {
+        header: Some(DetectedItemHeader {
+            tracking_id: Some(id(77)),
+            ground_truth_id: vec![id(77)],
+            existence_probability: Some(0.8),
+            age: Some(0.0),
+            ..Default::default()
+        }),
+        main_sign: Some(DetectedMainSign {
+            candidate: vec![detected_main_sign::CandidateMainSign {
+                probability: Some(1.0),
+                classification: Some(main_sign::Classification {
+                    r#type: Some(main_sign::classification::Type::SpeedLimitBegin as i32),
+                    value: Some(TrafficSignValue {
+                        value: Some(50.0),
+                        value_unit: Some(traffic_sign_value::Unit::KilometerPerHour as i32),
+                        text: None,
+                    }),
+                    ..Default::default()
+                }),
+            }],
+            base: Some(BaseStationary {
+                dimension: Some(d3(0.02, 0.6, 0.6)),
+                position: Some(v3(39.5, -4.4, 0.8)),
+                ..Default::default()
+            }),
+            base_rmse: None,
+            geometry: Some(detected_main_sign::Geometry::Circle as i32),
+        }),
+        supplementary_sign: vec![DetectedSupplementarySign {
+            candidate: vec![
+                detected_traffic_sign::detected_supplementary_sign::CandidateSupplementarySign {
+                    probability: Some(0.5),
+                    classification: Some(supplementary_sign::Classification {
+                        r#type: Some(supplementary_sign::classification::Type::Time as i32),
+                        ..Default::default()
+                    }),
+                },
+            ],
+            base: None,
+            base_rmse: None,
+        }],
     }
 }
 

@@ -42,6 +42,12 @@ from osi3 import osi_sensordata_pb2 as sd
 from osi3 import osi_sensorspecific_pb2 as spec
 from osi3 import osi_sensorview_pb2 as sv
 from osi3 import osi_sensorviewconfiguration_pb2 as svc
+from osi3 import osi_detectedlane_pb2 as dlane
+from osi3 import osi_detectedroadmarking_pb2 as drm
+from osi3 import osi_detectedtrafficlight_pb2 as dtl
+from osi3 import osi_detectedtrafficsign_pb2 as dts
+from osi3 import osi_roadmarking_pb2 as rmark
+from osi3 import osi_trafficlight_pb2 as tlight
 from osi3 import osi_trafficsign_pb2 as tsign
 from osi3 import osi_version_pb2 as version_pb2
 
@@ -400,6 +406,9 @@ def version():
 UNICODE = 'Fahrzeug Ü-Straße/車両/🚗 \u00e9\u0301 "quoted" \\ \n'
 
 
+PI_F = 3.141592653589793
+
+
 def rich_sensor_view() -> sv.SensorView:
     """A SensorView with every kind of field of the subset set, plus fields outside it."""
     MO = obj.MovingObject
@@ -635,13 +644,84 @@ def rich_sensor_view() -> sv.SensorView:
         wind=E.Wind(origin_direction=-3.0, speed=12.5),
         sun=E.Sun(azimuth=3.0, elevation=-0.2, intensity=float("inf")),
     )
+    TS = tsign.TrafficSign
+    MSC = TS.MainSign.Classification
+    SSC = TS.SupplementarySign.Classification
+    speed_value = tsign.TrafficSignValue(value=50.0, value_unit=tsign.TrafficSignValue.UNIT_KILOMETER_PER_HOUR, text="50")
+    traffic_sign = TS(
+        id=ident(77),
+        main_sign=TS.MainSign(
+            base=common.BaseStationary(dimension=d3(0.02, 0.6, 0.6), position=v3(40.0, -4.5, 2.3), orientation=o3(0.0, 0.0, 3.1)),
+            classification=MSC(
+                variability=TS.VARIABILITY_FIXED,
+                type=MSC.TYPE_SPEED_LIMIT_BEGIN,
+                value=speed_value,
+                direction_scope=MSC.DIRECTION_SCOPE_NO_DIRECTION,
+                assigned_lane_id=[ident(1), ident(U64_MAX)],
+                vertically_mirrored=False,
+                is_out_of_service=False,
+                country="DE",
+                country_revision="2017",
+                code="274",
+                sub_code="50",
+            ),
+            model_reference="",
+        ),
+        supplementary_sign=[
+            TS.SupplementarySign(
+                base=common.BaseStationary(dimension=d3(0.02, 0.6, 0.33), position=v3(40.0, -4.5, 1.8)),
+                classification=SSC(
+                    variability=TS.VARIABILITY_FIXED,
+                    type=SSC.TYPE_TIME,
+                    value=[tsign.TrafficSignValue(value=7.0, value_unit=tsign.TrafficSignValue.UNIT_HOUR)],
+                    is_out_of_service=True,
+                    arrow=[SSC.Arrow(lane_id=[ident(2)], direction=[SSC.Arrow.DIRECTION_DIRECT_0_DEG])],
+                ),
+            )
+        ],
+    )
+    TLC = tlight.TrafficLight.Classification
+    traffic_light = tlight.TrafficLight(
+        id=ident(78),
+        base=common.BaseStationary(dimension=d3(0.05, 0.2, 0.2), position=v3(60.0, 3.0, 5.5), orientation=o3(0.0, 0.0, -PI_F)),
+        classification=TLC(
+            color=TLC.COLOR_RED,
+            icon=TLC.ICON_ARROW_LEFT,
+            mode=TLC.MODE_COUNTING,
+            counter=0.0,
+            assigned_lane_id=[ident(0)],
+            is_out_of_service=False,
+        ),
+        model_reference="osiris:traffic_light",
+    )
+    RMC = rmark.RoadMarking.Classification
+    road_marking = rmark.RoadMarking(
+        id=ident(79),
+        base=common.BaseStationary(
+            dimension=d3(5.0, 1.2, 0.0),
+            position=v3(50.0, 0.0, 0.0),
+            base_polygon=[v2(-2.5, -0.6), v2(2.5, -0.6), v2(2.5, 0.6), v2(-2.5, 0.6)],
+        ),
+        classification=RMC(
+            type=RMC.TYPE_SYMBOLIC_TRAFFIC_SIGN,
+            traffic_main_sign_type=MSC.TYPE_STOP,
+            monochrome_color=RMC.COLOR_WHITE,
+            value=tsign.TrafficSignValue(text="STOP"),
+            value_text="STOP",
+            assigned_lane_id=[ident(3)],
+            is_out_of_service=False,
+            country="DE",
+        ),
+    )
     ground_truth = gt.GroundTruth(
         version=version(),
         timestamp=ts(-5, 250_000_000),
         host_vehicle_id=ident(0),
         stationary_object=[pole],
         moving_object=[host, pedestrian, car],
-        traffic_sign=[tsign.TrafficSign(id=ident(77))],
+        traffic_sign=[traffic_sign],
+        traffic_light=[traffic_light],
+        road_marking=[road_marking],
         lane_boundary=[boundary],
         lane=[ego_lane],
         environmental_conditions=conditions,
@@ -1038,7 +1118,93 @@ def rich_sensor_data() -> sd.SensorData:
         moving_object_header=entity_header(0, DQ.DATA_QUALIFIER_AVAILABLE),
         moving_object=moving,
         traffic_sign_header=entity_header(1, DQ.DATA_QUALIFIER_NOT_AVAILABLE),
+        traffic_sign=[
+            dts.DetectedTrafficSign(
+                header=DIH(tracking_id=ident(77), ground_truth_id=[ident(77)], existence_probability=0.8, age=0.0),
+                main_sign=dts.DetectedTrafficSign.DetectedMainSign(
+                    candidate=[
+                        dts.DetectedTrafficSign.DetectedMainSign.CandidateMainSign(
+                            probability=1.0,
+                            classification=tsign.TrafficSign.MainSign.Classification(
+                                type=tsign.TrafficSign.MainSign.Classification.TYPE_SPEED_LIMIT_BEGIN,
+                                value=tsign.TrafficSignValue(
+                                    value=50.0, value_unit=tsign.TrafficSignValue.UNIT_KILOMETER_PER_HOUR
+                                ),
+                            ),
+                        )
+                    ],
+                    base=common.BaseStationary(dimension=d3(0.02, 0.6, 0.6), position=v3(39.5, -4.4, 0.8)),
+                    geometry=dts.DetectedTrafficSign.DetectedMainSign.GEOMETRY_CIRCLE,
+                ),
+                supplementary_sign=[
+                    dts.DetectedTrafficSign.DetectedSupplementarySign(
+                        candidate=[
+                            dts.DetectedTrafficSign.DetectedSupplementarySign.CandidateSupplementarySign(
+                                probability=0.5,
+                                classification=tsign.TrafficSign.SupplementarySign.Classification(
+                                    type=tsign.TrafficSign.SupplementarySign.Classification.TYPE_TIME
+                                ),
+                            )
+                        ],
+                    )
+                ],
+            )
+        ],
+        traffic_light_header=entity_header(3, DQ.DATA_QUALIFIER_AVAILABLE),
+        traffic_light=[
+            dtl.DetectedTrafficLight(
+                header=DIH(tracking_id=ident(78), ground_truth_id=[ident(78)]),
+                base=common.BaseStationary(dimension=d3(0.05, 0.2, 0.2), position=v3(59.0, 3.1, 4.0)),
+                candidate=[
+                    dtl.DetectedTrafficLight.CandidateTrafficLight(
+                        probability=1.0,
+                        classification=tlight.TrafficLight.Classification(
+                            color=tlight.TrafficLight.Classification.COLOR_RED,
+                            mode=tlight.TrafficLight.Classification.MODE_OFF,
+                            counter=0.0,
+                        ),
+                    )
+                ],
+            )
+        ],
+        road_marking_header=entity_header(4, DQ.DATA_QUALIFIER_AVAILABLE_REDUCED),
+        road_marking=[
+            drm.DetectedRoadMarking(
+                header=DIH(tracking_id=ident(79), ground_truth_id=[ident(79)]),
+                base=common.BaseStationary(position=v3(49.0, 0.1, -1.5)),
+                candidate=[
+                    drm.DetectedRoadMarking.CandidateRoadMarking(
+                        probability=0.9,
+                        classification=rmark.RoadMarking.Classification(
+                            type=rmark.RoadMarking.Classification.TYPE_GENERIC_LINE,
+                            monochrome_color=rmark.RoadMarking.Classification.COLOR_WHITE,
+                        ),
+                    )
+                ],
+            )
+        ],
         lane_boundary_header=entity_header(2, DQ.DATA_QUALIFIER_UNKNOWN),
+        lane_boundary=[
+            dlane.DetectedLaneBoundary(
+                header=DIH(tracking_id=ident(300), ground_truth_id=[ident(300)], existence_probability=0.75),
+                candidate=[
+                    dlane.DetectedLaneBoundary.CandidateLaneBoundary(
+                        probability=1.0,
+                        classification=lane.LaneBoundary.Classification(
+                            type=lane.LaneBoundary.Classification.TYPE_DASHED_LINE,
+                            color=lane.LaneBoundary.Classification.COLOR_WHITE,
+                        ),
+                    )
+                ],
+                boundary_line=[
+                    lane.LaneBoundary.BoundaryPoint(position=v3(6.0, 1.75, -1.5), width=0.12),
+                    lane.LaneBoundary.BoundaryPoint(
+                        position=v3(8.0, 1.74, -1.5), dash=lane.LaneBoundary.BoundaryPoint.DASH_END
+                    ),
+                ],
+                boundary_line_confidences=[0.9, 0.0],
+            )
+        ],
         feature_data=feat.FeatureData(
             version=version(),
             radar_sensor=[radar],
