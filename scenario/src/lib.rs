@@ -36,8 +36,13 @@
 //! stream of SensorViews over time: what `scenario.fmu` publishes.
 
 pub mod player;
+pub mod traffic_control;
 
 pub use player::{Player, PlayerError};
+pub use traffic_control::{
+    MarkingKind, RoadMarkingConfig, SignKind, SignalHeadConfig, SignalPhase, SignalState,
+    TrafficSignConfig,
+};
 
 use std::path::{Path, PathBuf};
 
@@ -538,6 +543,15 @@ pub struct ScenarioConfig {
     pub guardrail: Option<GuardrailConfig>,
     #[serde(default)]
     pub static_objects: Vec<StaticObjectConfig>,
+    /// Traffic signs on posts ([`traffic_control`]).
+    #[serde(default)]
+    pub traffic_signs: Vec<TrafficSignConfig>,
+    /// Three-bulb signal heads with their cycles ([`traffic_control`]).
+    #[serde(default)]
+    pub signal_heads: Vec<SignalHeadConfig>,
+    /// Stop lines and lane arrows ([`traffic_control`]).
+    #[serde(default)]
+    pub road_markings: Vec<RoadMarkingConfig>,
     #[serde(default)]
     pub sensors: Vec<SensorMount>,
 }
@@ -546,6 +560,9 @@ impl Default for ScenarioConfig {
     /// 3-lane straight road, 400 m; ego at 25 m/s in the middle lane; a slower car 40 m ahead in the
     /// same lane, a truck in the left lane, a car behind the ego, a cyclist and a pedestrian on the
     /// right shoulder ahead, a guardrail on the right, a corner reflector, a board and a cone ahead;
+    /// a signalised stop line 135 m ahead (signal heads on both sides turning from green to yellow
+    /// at t = 1 s, a stop line across the three lanes, right/straight/left arrows before it), a
+    /// 70 km/h speed-limit sign and a "traffic signals ahead" warning sign on the right;
     /// camera, radar and LiDAR with their default mountings; 2 s at 0.02 s.
     fn default() -> Self {
         use RoadUserKind::*;
@@ -598,6 +615,77 @@ impl Default for ScenarioConfig {
                 static_at(StaticKind::Board, ego_x + 130.0, 0.0),
                 static_at(StaticKind::Cone, ego_x + 70.0, 0.8),
             ],
+            traffic_signs: vec![
+                TrafficSignConfig {
+                    sign: SignKind::SpeedLimit,
+                    value: Some(70.0),
+                    x_m: ego_x + 50.0,
+                    lane: -1,
+                    lateral_offset_m: -0.5,
+                    size_m: 0.6,
+                    height_m: 2.0,
+                    id: None,
+                },
+                TrafficSignConfig {
+                    sign: SignKind::TrafficSignalsAhead,
+                    value: None,
+                    x_m: ego_x + 75.0,
+                    lane: -1,
+                    lateral_offset_m: -0.5,
+                    size_m: 0.9,
+                    height_m: 2.0,
+                    id: None,
+                },
+            ],
+            signal_heads: {
+                let cycle = vec![
+                    SignalPhase {
+                        state: SignalState::Green,
+                        duration_s: 1.0,
+                    },
+                    SignalPhase {
+                        state: SignalState::Yellow,
+                        duration_s: 3.0,
+                    },
+                    SignalPhase {
+                        state: SignalState::Red,
+                        duration_s: 20.0,
+                    },
+                    SignalPhase {
+                        state: SignalState::RedYellow,
+                        duration_s: 1.0,
+                    },
+                ];
+                let head = |lane, lateral_offset_m| SignalHeadConfig {
+                    x_m: ego_x + 135.0,
+                    lane,
+                    lateral_offset_m,
+                    z_m: 2.5,
+                    lens_diameter_m: 0.2,
+                    cycle: cycle.clone(),
+                    offset_s: 0.0,
+                    id: None,
+                };
+                vec![head(-1, -0.5), head(3, 0.5)]
+            },
+            road_markings: {
+                let m = |kind, x_m, lane| RoadMarkingConfig {
+                    kind,
+                    x_m,
+                    lane,
+                    id: None,
+                };
+                let stop_x = ego_x + 131.0;
+                let arrow_x = ego_x + 115.0;
+                vec![
+                    m(MarkingKind::StopLine, stop_x, 0),
+                    m(MarkingKind::StopLine, stop_x, 1),
+                    m(MarkingKind::StopLine, stop_x, 2),
+                    m(MarkingKind::ArrowRight, arrow_x, 0),
+                    m(MarkingKind::ArrowStraight, arrow_x, 1),
+                    m(MarkingKind::ArrowLeft, arrow_x, 2),
+                ]
+            },
             sensors: SensorKind::ALL
                 .iter()
                 .enumerate()
@@ -678,6 +766,7 @@ impl ScenarioConfig {
         };
         positive("step_s", self.step_s)?;
         non_negative("duration_s", self.duration_s)?;
+        traffic_control::validate(&self.traffic_signs, &self.signal_heads, &self.road_markings)?;
         non_negative("environment.rain_mm_h", self.environment.rain_mm_h)?;
         if let Some(v) = self.environment.fog_visibility_m {
             positive("environment.fog_visibility_m", v)?;
@@ -826,6 +915,11 @@ impl ScenarioConfig {
         if let Some(g) = &self.guardrail {
             ids.push((g.id.unwrap_or(900), "the guardrail".to_string()));
         }
+        ids.extend(traffic_control::ids(
+            &self.traffic_signs,
+            &self.signal_heads,
+            &self.road_markings,
+        ));
         ids
     }
 
@@ -1243,7 +1337,28 @@ impl ScenarioConfig {
             moving.push(self.moving_object(u, u.id.unwrap_or(100 + i as u64), t));
         }
         let (lane, lane_boundary) = self.lanes(self.road.lane_at(host_y));
+        let lane_ids = |y: f64| -> Vec<osi3::Identifier> {
+            self.road
+                .lane_at(y)
+                .and_then(|l| self.lane_id(l))
+                .map(id)
+                .into_iter()
+                .collect()
+        };
         osi3::GroundTruth {
+            traffic_sign: traffic_control::traffic_signs(
+                &self.road,
+                &self.traffic_signs,
+                &(0..self.road.lanes as i32)
+                    .filter_map(|l| self.lane_id(l).map(id))
+                    .collect::<Vec<_>>(),
+            ),
+            traffic_light: traffic_control::traffic_lights(&self.road, &self.signal_heads, t),
+            road_marking: traffic_control::road_markings(
+                &self.road,
+                &self.road_markings,
+                &lane_ids,
+            ),
             version: Some(interface_version()),
             timestamp: Some(ts),
             host_vehicle_id: Some(id(host_id)),
