@@ -1,5 +1,5 @@
 //! Camera recognition of traffic lights, traffic signs, road markings and lane boundaries: what a
-//! front camera exists to see, read from the rendered view (`physics.md §5.4`).
+//! front camera exists to see, read from the rendered view (`physics.md §8`).
 //!
 //! Runs after [`super::camera::CameraRecognition::step`] on the same frame and reuses its pass
 //! over the object mask (per ground-truth id: visible pixel count, box, summed luminance). The
@@ -11,7 +11,7 @@
 //!
 //! 1. **Visible**: the bulb's pixels in the mask (its lens; the renderer gives each bulb's lens its
 //!    OSI id). A bulb with fewer than `light_min_px` pixels is not reported.
-//! 2. **Lit or dark**: `ρ = L_lens / L_ref` with `L_lens` the mean luminance of the brightest
+//! 2. **Lit or dark** (`physics.md §8.2`): `ρ = L_lens / L_ref` with `L_lens` the mean luminance of the brightest
 //!    quarter of the lens pixels (at least one) and `L_ref` the median luminance of a ring of
 //!    `max(1, ⌈d_px/4⌉)` px around the lens box, without the lens (the housing or back plate);
 //!    lit iff `ρ ≥ light_lit_ratio` (guessed 2.0). A lit LED lens captured while its PWM is off
@@ -22,7 +22,7 @@
 //!    icon from the ground truth, mode = `CONSTANT` (or the ground truth's `FLASHING`/`COUNTING`)
 //!    when read lit, `OFF` when read dark; position = the lens box centre's ray at the distance
 //!    `d = D f / d_px` from the lens's standard diameter `D` (the bulb's OSI width) and its
-//!    apparent diameter `d_px` (pinhole size–distance relation).
+//!    apparent diameter `d_px` (pinhole size–distance relation, `physics.md §8.1`).
 //!
 //! # Traffic signs
 //!
@@ -31,7 +31,7 @@
 //!    post is a few pixels wide).
 //! 2. **Detection**: `p = σ_h · σ_C` with the size factor `σ_h = 1/(1 + (h₅₀/h)^{k_h})` of the plate's
 //!    pixel height `h` and the contrast factor `σ_C = 1/(1 + (C₅₀/|C|)^{k_C})` of its Weber contrast
-//!    against the ring around it (the same logistic forms as the object detector, §5.3); zero
+//!    against the ring around it (the same logistic forms as the object detector; `physics.md §8.3`); zero
 //!    below `sign_min_height_px` or `sign_min_contrast`. Bernoulli draw seeded per (seed, cycle, id)
 //!    or `p ≥ 0.5`, as the object detector.
 //! 3. **Classification**: the main-sign type (the ground truth's classification) is reported only
@@ -52,7 +52,7 @@
 //! classification; its position is the box centre's ray intersected with the road plane at the
 //! camera height (flat road, levelled with the rotation the camera believes it has).
 //!
-//! # Lane boundaries (from the painted markings' contrast)
+//! # Lane boundaries (from the painted markings' contrast, `physics.md §8.4`)
 //!
 //! Each ground-truth boundary with a painted type (solid or dashed, colour not none) is sampled
 //! every `lane_sample_step_m` along its `boundary_line` up to `lane_max_range_m` from the camera.
