@@ -102,7 +102,15 @@ pub fn bench_lidar_with(
             &Weather::CLEAR,
             resolved.wavelength_nm,
         );
-        let solar = SolarPlan::new(&signal_config, sun_direction(None), resolved.wavelength_nm);
+        let sun = sun_direction(None);
+        let sky = crate::environment::sky_distribution::SkyDistribution::cie(
+            crate::environment::sky_distribution::CieSkyType::standard(
+                crate::environment::sky_distribution::DEFAULT_CIE_SKY_TYPE,
+            )
+            .expect("CIE type 12"),
+            sun,
+        );
+        let solar = SolarPlan::new(&signal_config, sun, resolved.wavelength_nm, sky);
         let mut times = Vec::with_capacity(frames);
         let mut points = 0usize;
         let cpu0 = process_cpu_s();
@@ -116,7 +124,7 @@ pub fn bench_lidar_with(
                     velocity_m_s: DVec3::ZERO,
                     angular_velocity_rad_s: DVec3::ZERO,
                     signal,
-                    solar,
+                    solar: solar.clone(),
                     cycle: f as u64,
                 };
                 let t = Instant::now();

@@ -66,6 +66,9 @@ use crate::constants::SPEED_OF_LIGHT_M_S;
 use crate::effects::{EffectInfo, Effects};
 use crate::environment::material::{self, MaterialDb, MaterialEffects};
 use crate::environment::scene::{Scene, StaticElement};
+use crate::environment::sky_distribution::{
+    CieSkyType, DEFAULT_CIE_SKY_TYPE, SKY_DISTRIBUTION, SkyDistribution,
+};
 use crate::environment::sun;
 use crate::frames::{Pose, Spherical};
 use crate::physical::{Cycle, PhysicalSensor, Physics, ego_state};
@@ -561,6 +564,13 @@ impl LidarEngine {
             let mut shadow_tested: Option<bool> = None;
             for j in 0..m {
                 let Some(first) = s.hits[k * m + j] else {
+                    // Nothing within range: the sky's radiance in the sub-ray's direction.
+                    if self.solar_background
+                        && let Some(sun) = &input.solar
+                    {
+                        background_w +=
+                            self.sub_rays[j].weight * sun.sky_power_w(s.rays[k * m + j].direction);
+                    }
                     continue;
                 };
                 let ray = s.rays[k * m + j];
@@ -823,6 +833,8 @@ pub struct LidarPhysics {
     points: Vec<LidarPoint>,
     /// The recognised moving objects of the cycle (swapped into the output by `emit`).
     moving: Vec<osi3::DetectedMovingObject>,
+    /// The sky radiance distribution and the sun direction it was planned for.
+    sky: Option<(DVec3, SkyDistribution)>,
 }
 
 impl LidarPhysics {
@@ -865,6 +877,7 @@ impl Physics for LidarPhysics {
             recognition,
             points: Vec::new(),
             moving: Vec::new(),
+            sky: None,
         })
     }
 
@@ -887,10 +900,28 @@ impl Physics for LidarPhysics {
             self.resolved.wavelength_nm,
         );
         let solar = if self.effects.is_on(&signal::SOLAR_BACKGROUND) {
+            let sun_dir = sun::sun_direction(gt_env);
+            // `env.sky_distribution`: the CIE standard clear sky for this sun (planned once per
+            // sun position), else the isotropic sky.
+            if !self
+                .sky
+                .as_ref()
+                .is_some_and(|(d, _)| d.dot(sun_dir) > 1.0 - 1e-12)
+            {
+                let dist = if self.effects.is_on(&SKY_DISTRIBUTION) {
+                    let ty = CieSkyType::standard(DEFAULT_CIE_SKY_TYPE).expect("CIE type 12");
+                    SkyDistribution::cie(ty, sun_dir)
+                } else {
+                    SkyDistribution::isotropic()
+                };
+                self.sky = Some((sun_dir, dist));
+            }
+            let sky = self.sky.as_ref().map(|(_, d)| d.clone()).expect("planned");
             SolarPlan::new(
                 &self.lidar.signal,
-                sun::sun_direction(gt_env),
+                sun_dir,
                 self.resolved.wavelength_nm,
+                sky,
             )
         } else {
             None

@@ -20,6 +20,8 @@
 //! wavelength (`environment::weather`), each switchable here and in `env.*`.
 
 use glam::DVec3;
+
+use crate::environment::sky_distribution::SkyDistribution;
 use serde::{Deserialize, Serialize};
 
 use crate::effects::{EffectInfo, Effects};
@@ -70,11 +72,13 @@ pub const RAIN_EXTINCTION: EffectInfo = EffectInfo {
 pub const SOLAR_BACKGROUND: EffectInfo = EffectInfo {
     name: "lidar.solar_background",
     default_on: true,
-    summary: "P_bg = ρ (E_dir cos θ_s·[sunlit] + E_diff)/π · Δλ · A_r · Ω_FOV · η, Ω_FOV = π(θ_FOV/2)², E from \
-              SPCTRAL2 at the laser wavelength for the sun of the ground truth; cos θ_s = 0 when the hit \
-              point is shadowed (ray towards the sun); sky background of pulses that hit nothing neglected; \
-              off: P_bg = 0",
-    source: "physics.md §2.2; Bird & Riordan SPCTRAL2 (SERI/TR-215-2436, 1984); ASTM G173-03",
+    summary: "P_bg = ρ (E_dir cos θ_s·[sunlit] + E_diff·V(n))/π · Δλ · A_r · Ω_FOV · η, Ω_FOV = π(θ_FOV/2)², E \
+              from SPCTRAL2 at the laser wavelength for the sun of the ground truth, V(n) the sky view \
+              factor of the surface; cos θ_s = 0 when the hit point is shadowed (ray towards the sun); a \
+              beam that hits nothing sees the sky radiance L = E_diff·k(ω)/π of its direction \
+              (env.sky_distribution); off: P_bg = 0",
+    source: "physics.md §2.2, §4.3; Bird & Riordan SPCTRAL2 (SERI/TR-215-2436, 1984); ASTM G173-03; \
+             CIE S 011/E:2003",
     requires: None,
 };
 
@@ -298,7 +302,7 @@ pub fn extinction_per_m(w: &Weather, wavelength_nm: f64, effects: &Effects) -> f
 }
 
 /// Solar background illumination at the laser wavelength (from the ground truth's sun).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct SolarPlan {
     /// Unit vector towards the sun, scene frame.
     pub sun_dir: DVec3,
@@ -308,13 +312,20 @@ pub struct SolarPlan {
     pub dhi_w_m2_nm: f64,
     /// Δλ · A_r · Ω_FOV · η / π, m² sr nm.
     pub k: f64,
+    /// The sky's radiance distribution relative to the isotropic sky E_diff/π (physics.md §4.3).
+    pub sky: SkyDistribution,
 }
 
 impl SolarPlan {
     /// The sun at `elevation_rad` (above the horizon) and scene-frame direction `sun_dir`; None when
     /// the sun is down. Irradiance from SPCTRAL2 (default atmosphere) at `wavelength_nm`, averaged
     /// over the filter passband.
-    pub fn new(config: &SignalConfig, sun_dir: DVec3, wavelength_nm: f64) -> Option<SolarPlan> {
+    pub fn new(
+        config: &SignalConfig,
+        sun_dir: DVec3,
+        wavelength_nm: f64,
+        sky: SkyDistribution,
+    ) -> Option<SolarPlan> {
         use crate::environment::sky::{ClearSkyInput, spectrl2};
         let elevation = sun_dir.z.clamp(-1.0, 1.0).asin();
         if elevation <= 0.0 {
@@ -332,6 +343,7 @@ impl SolarPlan {
             dni_w_m2_nm: s.band_mean_dni(a, b),
             dhi_w_m2_nm: s.band_mean_dhi(a, b),
             k: background_factor(config),
+            sky,
         })
     }
 
@@ -344,7 +356,19 @@ impl SolarPlan {
         } else {
             0.0
         };
-        rho * (self.dni_w_m2_nm * cos_s + self.dhi_w_m2_nm) * self.k
+        rho * (self.dni_w_m2_nm * cos_s + self.dhi_w_m2_nm * self.sky.view_factor(n)) * self.k
+    }
+
+    /// Background power, W, of a beam that hits nothing in direction `dir` (scene frame, unit):
+    /// the sky radiance L = E_diff·k(ω)/π over the receiver's field of view,
+    /// `P = L · Δλ · A_r · Ω_FOV · η = E_diff · k(ω) · k_bg` (physics.md §2.2). Below the horizon
+    /// (nothing hit within range: the road ends) none.
+    #[inline]
+    pub fn sky_power_w(&self, dir: DVec3) -> f64 {
+        if dir.z <= 0.0 {
+            return 0.0;
+        }
+        self.dhi_w_m2_nm * self.sky.factor(dir) * self.k
     }
 }
 
@@ -409,6 +433,46 @@ mod tests {
             let got = p.power_w(1.0, lam, 1.0, r);
             assert!(rel(got, want) < 0.03, "{r} m: {got} vs {want}");
         }
+    }
+
+    #[test]
+    fn sky_beam_background_equals_a_white_surface_under_the_same_sky() {
+        use crate::environment::sky_distribution::{CieSkyType, SkyDistribution};
+        let c = SignalConfig::default();
+        let sun = DVec3::new(0.5, 0.2, 0.8).normalize();
+        // Isotropic sky: L = E_diff/π everywhere, the radiance of a white Lambertian horizontal
+        // surface lit by that sky alone (in shadow): the same background.
+        let iso = SolarPlan::new(&c, sun, 905.0, SkyDistribution::isotropic()).unwrap();
+        let white = iso.power_w(1.0, DVec3::Z, false);
+        for dir in [DVec3::Z, DVec3::new(1.0, 0.0, 0.1).normalize()] {
+            assert!(rel(iso.sky_power_w(dir), white) < 1e-12);
+        }
+        // A vertical surface sees half the isotropic sky: (1 + n_z)/2.
+        assert!(rel(iso.power_w(1.0, DVec3::X, false), 0.5 * white) < 1e-12);
+        // Below the horizon no sky.
+        assert_eq!(iso.sky_power_w(DVec3::new(1.0, 0.0, -0.1).normalize()), 0.0);
+        // CIE clear sky: the cosine-weighted mean of the sky beams' background over the hemisphere
+        // is the white horizontal surface's (the distribution keeps E_diff), within 1 %.
+        let ty = CieSkyType::standard(12).unwrap();
+        let cie = SolarPlan::new(&c, sun, 905.0, SkyDistribution::cie(ty, sun)).unwrap();
+        let (n_mu, n_phi) = (200, 400);
+        let mut e = 0.0;
+        for i in 0..n_mu {
+            let mu = (i as f64 + 0.5) / n_mu as f64;
+            for j in 0..n_phi {
+                let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / n_phi as f64;
+                let st = (1.0 - mu * mu).sqrt();
+                let d = DVec3::new(st * phi.cos(), st * phi.sin(), mu);
+                e += cie.sky_power_w(d) * mu;
+            }
+        }
+        e *= (1.0 / n_mu as f64) * (2.0 * std::f64::consts::PI / n_phi as f64)
+            / std::f64::consts::PI;
+        assert!(rel(e, white) < 0.01, "{e} vs {white}");
+        // Towards the sun the clear sky is brighter than at the zenith, opposite it darker.
+        let anti = DVec3::new(-sun.x, -sun.y, 0.3).normalize();
+        assert!(cie.sky_power_w(sun) > 2.0 * cie.sky_power_w(DVec3::Z));
+        assert!(cie.sky_power_w(anti) < cie.sky_power_w(DVec3::Z));
     }
 
     #[test]
