@@ -15,14 +15,33 @@
 //!   the angle between the lamp axis and the viewing direction (a uniformly bright emitting face of
 //!   the given intensity; Ryer, *Light Measurement Handbook*, 1997, ch. 7: luminance = intensity /
 //!   projected area).
+//!
+//! # Traffic signals
+//!
+//! Each bulb of the scene ([`Scene::signal_bulbs`], one per OSI `TrafficLight`) is lit when its
+//! current `classification.mode` is `CONSTANT` or `COUNTING` (counting signals are steady lights with
+//! a counter), or `FLASHING` during the on-phase of a [`LampConfig::flash_hz`] /
+//! [`LampConfig::flash_duty`] cycle (1 Hz, 50 %: inside the US MUTCD range of 50–60 flashes per
+//! minute lit for ½ to ⅔ of the cycle, physics.md §3.7; the phase is 0 at simulation time 0, and
+//! the on/off state is decided once per frame at the frame's start time); not when `OFF`, unknown or
+//! `is_out_of_service`. A lit bulb is a [`LampSource`] ([`LampRole::Signal`]) at the lens centre
+//! with the bulb's axis, the EN 12368-like distribution of its roundel size
+//! ([`SIGNAL_200`]: lenses < 250 mm, else [`SIGNAL_300`]), the LED line of its colour, the lens
+//! area `π d²/4`, and a PWM drive of [`LampConfig::signal_pwm_hz`] / [`LampConfig::signal_duty`]
+//! (phase 0: mains-synchronous; duty 1 = steady). Its lens pixels emit `L = I/(A cos θ)` and go
+//! through the `camera.led_flicker` path like vehicle lamps. Signal lamps light the scene only with
+//! [`LampConfig::signal_illumination`] (off by default: a shadow ray per pixel and lit bulb).
 
 use glam::{DMat3, DVec3};
 use osiris_proto::osi3;
 use serde::{Deserialize, Serialize};
 
-use crate::environment::lamps::{LightDistribution, Spectrum};
+use std::collections::HashMap;
+
+use crate::environment::lamps::{LightDistribution, SIGNAL_200MM_CD, SIGNAL_300MM_CD, Spectrum};
 use crate::environment::mesh::Mesh;
 use crate::environment::scene::Scene;
+use crate::environment::traffic::SignalColour;
 use crate::error::ModelError;
 use crate::frames::Pose;
 
@@ -75,6 +94,17 @@ pub struct LampConfig {
     pub brake_factor: f64,
     /// Irradiance below which a lamp's contribution at a point is skipped (no shadow ray), lx.
     pub min_illuminance_lux: f64,
+    /// PWM frequency of LED traffic signals, Hz (**guessed**: 100 Hz, the ripple of a drive from
+    /// full-wave rectified 50 Hz mains).
+    pub signal_pwm_hz: f64,
+    /// PWM duty cycle of LED traffic signals, 0…1 (**guessed**; 1 = steady, a DC-driven signal).
+    pub signal_duty: f64,
+    /// Flash rate of `FLASHING` signals, Hz (1 Hz: 60 flashes per minute, US MUTCD range 50–60).
+    pub flash_hz: f64,
+    /// Lit fraction of a flash cycle, 0…1 (0.5: the MUTCD minimum of ½).
+    pub flash_duty: f64,
+    /// Lit signal lamps also light the scene (point sources with their distribution).
+    pub signal_illumination: bool,
 }
 
 impl Default for LampConfig {
@@ -89,6 +119,11 @@ impl Default for LampConfig {
             brake_duty: 1.0,
             brake_factor: 8.0,
             min_illuminance_lux: 1e-3,
+            signal_pwm_hz: 100.0,
+            signal_duty: 0.5,
+            flash_hz: 1.0,
+            flash_duty: 0.5,
+            signal_illumination: false,
         }
     }
 }
@@ -103,6 +138,8 @@ impl LampConfig {
         for (k, v) in [
             ("head_pwm_hz", self.head_pwm_hz),
             ("tail_pwm_hz", self.tail_pwm_hz),
+            ("signal_pwm_hz", self.signal_pwm_hz),
+            ("flash_hz", self.flash_hz),
         ] {
             if !(v.is_finite() && v > 0.0 && v <= 1e6) {
                 return bad(k, v, "in (0, 1e6] Hz");
@@ -112,6 +149,8 @@ impl LampConfig {
             ("head_duty", self.head_duty),
             ("tail_duty", self.tail_duty),
             ("brake_duty", self.brake_duty),
+            ("signal_duty", self.signal_duty),
+            ("flash_duty", self.flash_duty),
         ] {
             if !(v.is_finite() && v > 0.0 && v <= 1.0) {
                 return bad(k, v, "in (0, 1]");
@@ -130,11 +169,12 @@ impl LampConfig {
     }
 }
 
-/// Head or tail lamp lens.
+/// Head or tail lamp lens, or a traffic-signal bulb.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LampRole {
     Head,
     Tail,
+    Signal,
 }
 
 /// The outer face of one lamp lens in the mesh (object) frame.
@@ -184,8 +224,8 @@ pub fn mesh_lamp_faces(mesh: &Mesh) -> Vec<LampFace> {
                 continue;
             }
             let (x, axis) = match role {
-                LampRole::Head => (hi.x, DVec3::X),
                 LampRole::Tail => (lo.x, DVec3::NEG_X),
+                _ => (hi.x, DVec3::X),
             };
             out.push(LampFace {
                 role,
@@ -222,15 +262,44 @@ pub const LOW_BEAM: usize = 0;
 pub const HIGH_BEAM: usize = 1;
 pub const TAIL: usize = 2;
 pub const BRAKE: usize = 3;
+/// Traffic-signal roundel of 200 mm ([`LightDistribution::en12368_signal`], [`SIGNAL_200MM_CD`]).
+pub const SIGNAL_200: usize = 4;
+/// Traffic-signal roundel of 300 mm ([`SIGNAL_300MM_CD`]).
+pub const SIGNAL_300: usize = 5;
 /// Index of a spectrum in [`LampLibrary::spectra`].
 pub const SPECTRUM_HEAD: usize = 0;
 pub const SPECTRUM_RED: usize = 1;
+pub const SPECTRUM_SIGNAL_RED: usize = 2;
+pub const SPECTRUM_SIGNAL_YELLOW: usize = 3;
+pub const SPECTRUM_SIGNAL_GREEN: usize = 4;
+pub const SPECTRUM_SIGNAL_BLUE: usize = 5;
+pub const SPECTRUM_SIGNAL_WHITE: usize = 6;
+
+/// The spectrum index of a signal colour (unknown colours: white).
+pub fn signal_spectrum(colour: SignalColour) -> usize {
+    match colour {
+        SignalColour::Red => SPECTRUM_SIGNAL_RED,
+        SignalColour::Yellow => SPECTRUM_SIGNAL_YELLOW,
+        SignalColour::Green => SPECTRUM_SIGNAL_GREEN,
+        SignalColour::Blue => SPECTRUM_SIGNAL_BLUE,
+        SignalColour::White | SignalColour::Other => SPECTRUM_SIGNAL_WHITE,
+    }
+}
+
+/// The distribution index of a signal lens of diameter `d` (m): 300 mm class from 250 mm on.
+pub fn signal_distribution(diameter_m: f64) -> usize {
+    if diameter_m >= 0.25 {
+        SIGNAL_300
+    } else {
+        SIGNAL_200
+    }
+}
 
 /// Distributions and spectra, built once.
 #[derive(Debug, Clone)]
 pub struct LampLibrary {
-    pub distributions: [LightDistribution; 4],
-    pub spectra: [Spectrum; 2],
+    pub distributions: [LightDistribution; 6],
+    pub spectra: [Spectrum; 7],
     pub head_is_led: bool,
 }
 
@@ -243,6 +312,8 @@ impl LampLibrary {
                 LightDistribution::ece_high_beam(),
                 tail.clone(),
                 tail.scaled(config.brake_factor),
+                LightDistribution::en12368_signal(SIGNAL_200MM_CD),
+                LightDistribution::en12368_signal(SIGNAL_300MM_CD),
             ],
             spectra: [
                 match config.head_lamp {
@@ -250,6 +321,11 @@ impl LampLibrary {
                     HeadLampKind::Halogen => Spectrum::halogen(),
                 },
                 Spectrum::red_led(),
+                Spectrum::signal_red(),
+                Spectrum::signal_yellow(),
+                Spectrum::signal_green(),
+                Spectrum::signal_blue(),
+                Spectrum::white_led(),
             ],
             head_is_led: config.head_lamp == HeadLampKind::Led,
         }
@@ -270,10 +346,15 @@ pub struct LampSource {
     pub area_m2: f64,
     /// PWM drive (LED lamps), `None` for steady sources.
     pub pwm: Option<PwmSource>,
-    /// Scene instance the lamp belongs to (`None`: the host).
+    /// Scene instance the lamp belongs to (`None`: the host, or a traffic signal).
     pub instance: Option<u32>,
     pub role: LampRole,
     pub side: usize,
+    /// Ground-truth id of the lamp's vehicle (the host's for host lamps) or signal bulb.
+    pub object_id: u64,
+    /// Whether the lamp lights the scene (vehicle lamps always; signals with
+    /// [`LampConfig::signal_illumination`]).
+    pub illuminates: bool,
 }
 
 impl LampSource {
@@ -290,6 +371,8 @@ pub struct LampPlan {
     /// Per scene instance: lamp index of [head right, head left, tail right, tail left], or
     /// `u32::MAX`.
     pub instance_lamps: Vec<[u32; 4]>,
+    /// Lit traffic-signal bulbs: OSI id → lamp index.
+    pub signal_lamps: HashMap<u64, u32>,
 }
 
 fn on(v: Option<i32>) -> bool {
@@ -334,6 +417,7 @@ fn push_lamp(
     let left = up.cross(axis).normalize_or_zero();
     let up = axis.cross(left);
     let (spectrum, pwm) = match face.role {
+        LampRole::Signal => unreachable!("signal lamps are planned by `plan_signals`"),
         LampRole::Head => (
             SPECTRUM_HEAD,
             lib.head_is_led
@@ -366,11 +450,94 @@ fn push_lamp(
         instance,
         role: face.role,
         side: face.side,
+        object_id,
+        illuminates: true,
     });
     (plan.lamps.len() - 1) as u32
 }
 
-/// The lamps lit in this frame. `sun_up`: whether the sun is above the horizon (host `auto`).
+/// Whether a signal bulb is lit at `time_s` (see the module docs).
+pub fn signal_lit(tl: &osi3::TrafficLight, config: &LampConfig, time_s: f64) -> bool {
+    use osi3::traffic_light::classification::Mode as M;
+    let Some(c) = tl.classification.as_ref() else {
+        return false;
+    };
+    if c.is_out_of_service == Some(true) {
+        return false;
+    }
+    match c.mode.and_then(|m| M::try_from(m).ok()) {
+        Some(M::Constant | M::Counting) => true,
+        Some(M::Flashing) => {
+            PwmSource {
+                frequency_hz: config.flash_hz,
+                duty: config.flash_duty,
+                phase_s: 0.0,
+            }
+            .on_fraction(time_s, 0.0)
+                >= 1.0
+        }
+        _ => false,
+    }
+}
+
+/// The lit traffic-signal bulbs of the frame at `time_s` (see the module docs).
+fn plan_signals(
+    plan: &mut LampPlan,
+    config: &LampConfig,
+    scene: &Scene,
+    gt: &osi3::GroundTruth,
+    time_s: f64,
+) {
+    if scene.signal_bulbs.is_empty() {
+        return;
+    }
+    let lights: HashMap<u64, &osi3::TrafficLight> = gt
+        .traffic_light
+        .iter()
+        .filter_map(|t| Some((t.id.as_ref()?.value?, t)))
+        .collect();
+    for bulb in &scene.signal_bulbs {
+        let Some(tl) = lights.get(&bulb.id) else {
+            continue;
+        };
+        if !signal_lit(tl, config, time_s) {
+            continue;
+        }
+        let colour = SignalColour::from_osi(tl.classification.as_ref().and_then(|c| c.color));
+        // Orthonormal lamp frame from the bulb's axes (x = optical axis).
+        let axis = bulb.rotation.x_axis.normalize();
+        let left = bulb
+            .rotation
+            .z_axis
+            .cross(axis)
+            .try_normalize()
+            .unwrap_or_else(|| axis.any_orthonormal_vector());
+        let up = axis.cross(left);
+        plan.lamps.push(LampSource {
+            position: bulb.centre,
+            rotation: DMat3::from_cols(axis, left, up),
+            distribution: signal_distribution(bulb.diameter_m),
+            spectrum: signal_spectrum(colour),
+            area_m2: bulb.lens_area_m2(),
+            pwm: (config.signal_duty < 1.0).then_some(PwmSource {
+                frequency_hz: config.signal_pwm_hz,
+                duty: config.signal_duty,
+                phase_s: 0.0,
+            }),
+            instance: None,
+            role: LampRole::Signal,
+            side: 0,
+            object_id: bulb.id,
+            illuminates: config.signal_illumination,
+        });
+        plan.signal_lamps
+            .insert(bulb.id, (plan.lamps.len() - 1) as u32);
+    }
+}
+
+/// The lamps lit in this frame. `sun_up`: whether the sun is above the horizon (host `auto`);
+/// `time_s`: simulation time of the frame's start (flashing signals).
+#[allow(clippy::too_many_arguments)]
 pub fn plan_lamps(
     plan: &mut LampPlan,
     config: &LampConfig,
@@ -379,8 +546,10 @@ pub fn plan_lamps(
     gt: &osi3::GroundTruth,
     host_id: Option<u64>,
     sun_up: bool,
+    time_s: f64,
 ) {
     plan.lamps.clear();
+    plan.signal_lamps.clear();
     plan.instance_lamps.clear();
     plan.instance_lamps
         .resize(scene.instances.len(), [u32::MAX; 4]);
@@ -486,4 +655,5 @@ pub fn plan_lamps(
             }
         }
     }
+    plan_signals(plan, config, scene, gt, time_s);
 }

@@ -89,7 +89,9 @@ use super::{
     SpectralBands, SpectralResponse, SunInView,
 };
 use crate::effects::{EffectInfo, Effects};
-use crate::environment::material::{Band, MaterialDb};
+use crate::environment::assets::signals::SIGNAL_LENS_PART;
+use crate::environment::lamps::{photopic_v, planck_radiance_w_m2_sr_nm};
+use crate::environment::material::{Band, MaterialDb, RETROREFLECTION};
 use crate::environment::scene::StaticElement;
 use crate::environment::sky::{ClearSkyInput, spectrl2};
 use crate::environment::sky_distribution::{CieSkyType, SKY_DISTRIBUTION, SkyDistribution};
@@ -352,6 +354,8 @@ pub struct Renderer {
     rolling: bool,
     blur: bool,
     flicker: bool,
+    /// `env.retroreflection` on.
+    retroreflection: bool,
     lamp_lib: LampLibrary,
     lamp_plan: LampPlan,
     /// Object id per pixel (before compaction into `aux.object_ids`).
@@ -369,9 +373,10 @@ pub struct Renderer {
 // Frame plan
 // ---------------------------------------------------------------------------------------------
 
-/// Rows of the lane table (each `nl` lanes wide).
+/// Rows of the lane table (each `nl` lanes wide): `nm` materials, `ns` lamp spectra.
 struct Rows {
     nm: usize,
+    ns: usize,
 }
 
 impl Rows {
@@ -391,8 +396,16 @@ impl Rows {
     fn lamp(&self, s: usize, m: usize) -> usize {
         (3 + s) * self.nm + m
     }
+    /// Retroreflected sun light per unit retro BRDF: `ρ(λ)/ρ̄_A · E_dni(λ)` per material.
+    fn retro_sun(&self, m: usize) -> usize {
+        (3 + self.ns) * self.nm + m
+    }
+    /// Retroreflected lamp light per unit retro BRDF and lux: `ρ(λ)/ρ̄_A · s(λ)` per material.
+    fn retro_lamp(&self, s: usize, m: usize) -> usize {
+        (4 + self.ns + s) * self.nm + m
+    }
     fn base(&self) -> usize {
-        5 * self.nm
+        (4 + 2 * self.ns) * self.nm
     }
     /// E_dni (for specular lobes).
     fn sun_e(&self) -> usize {
@@ -411,7 +424,7 @@ impl Rows {
         self.base() + 3 + s
     }
     fn count(&self) -> usize {
-        self.base() + 5
+        self.base() + 3 + self.ns
     }
 }
 
@@ -446,6 +459,10 @@ struct Ctx<'a> {
     min_lux: f64,
     /// Per scene mesh, per part: 1 head lamps, 2 tail lamps.
     part_role: Vec<Vec<u8>>,
+    /// Per static-world part: a traffic-signal lens.
+    static_lens: Vec<bool>,
+    /// Per material: has a visible retroreflective lobe (and `env.retroreflection` is on).
+    retro: Vec<bool>,
     bounces: u32,
     max_crossings: u32,
     max_distance_m: f64,
@@ -485,14 +502,17 @@ struct Sample {
     angular_rate: f32,
 }
 
-/// A contribution waiting for its shadow ray: `acc[item] += gd·T[rd] (⊙ β) + gs·T[rs]`.
+/// A contribution waiting for its shadow ray: `acc[item] += (gd·T[rd] + gs·T[rs] + gr·T[rr]) (⊙ β)`.
 #[derive(Clone, Copy)]
 struct Pending {
     item: u32,
     rd: u32,
     rs: u32,
+    /// Retroreflection row (only read when `gr ≠ 0`).
+    rr: u32,
     gd: f32,
     gs: f32,
+    gr: f32,
     beta: bool,
 }
 
@@ -531,6 +551,22 @@ struct Scratch {
     rays_n: u64,
 }
 
+/// Temperature of CIE standard illuminant A, K (CIE S 014-2: a Planckian radiator at 2856 K).
+const ILLUMINANT_A_K: f64 = 2856.0;
+
+/// Luminous mean of a reflectance under CIE illuminant A: `∫ρ S_A V dλ / ∫S_A V dλ` over
+/// 380–780 nm (1 nm steps).
+fn illuminant_a_mean(rho: impl Fn(f64) -> f64) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for k in 0..=400 {
+        let l = 380.0 + k as f64;
+        let w = planck_radiance_w_m2_sr_nm(l, ILLUMINANT_A_K) * photopic_v(l);
+        num += rho(l) * w;
+        den += w;
+    }
+    num / den
+}
+
 fn unit_f64(h: u64) -> f64 {
     (h >> 11) as f64 / (1u64 << 53) as f64
 }
@@ -553,6 +589,7 @@ impl Renderer {
             rolling: effects.is_on(&ROLLING_SHUTTER),
             blur: effects.is_on(&MOTION_BLUR),
             flicker: effects.is_on(&LED_FLICKER),
+            retroreflection: effects.is_on(&RETROREFLECTION),
             lamp_lib: LampLibrary::new(&config.lamps),
             lamp_plan: LampPlan::default(),
             pixel_ids: Vec::new(),
@@ -625,6 +662,7 @@ impl Renderer {
             input.ground_truth,
             frame.host_id,
             sun_up,
+            input.timing.frame_time_s + input.timing.start_offset_s,
         );
 
         // Bands, weights, fog.
@@ -659,7 +697,10 @@ impl Renderer {
             }
         }
         let nm = mats.len();
-        let rows = Rows { nm };
+        let rows = Rows {
+            nm,
+            ns: self.lamp_lib.spectra.len(),
+        };
         let omega = sun_solid_angle_sr();
         // Spectral row values at band k, then folded to lanes.
         let mut table = vec![0f32; rows.count() * nl];
@@ -694,6 +735,18 @@ impl Renderer {
             for (s, sp) in spectra.iter().enumerate() {
                 put(rows.lamp(s, i), &|k| rho[k] / PI * sp[k]);
             }
+            // Retroreflection: the lobe's light carries the sheeting's colour, ρ(λ) normalised to
+            // its luminous mean under CIE illuminant A (the illuminant R_A is measured with), so that
+            // R_A = L_v / E_⊥ holds photometrically for illuminant A (physics.md §3.6).
+            if self.retroreflection && m.has_retro(Band::Visible(550.0)) {
+                let rho_a = illuminant_a_mean(|l| m.reflectance_visible(l));
+                if rho_a > 0.0 {
+                    put(rows.retro_sun(i), &|k| rho[k] / rho_a * dni[k]);
+                    for (s, sp) in spectra.iter().enumerate() {
+                        put(rows.retro_lamp(s, i), &|k| rho[k] / rho_a * sp[k]);
+                    }
+                }
+            }
         }
         put(rows.sun_e(), &|k| dni[k]);
         put(rows.sky_l(), &|k| dhi[k] / PI);
@@ -713,6 +766,22 @@ impl Renderer {
                 mats.get(crate::environment::material::MaterialId(i as u32))
                     .has_specular(Band::Visible(550.0))
             })
+            .collect();
+        let retro: Vec<bool> = (0..nm)
+            .map(|i| {
+                self.retroreflection
+                    && mats
+                        .get(crate::environment::material::MaterialId(i as u32))
+                        .has_retro(Band::Visible(550.0))
+            })
+            .collect();
+        let static_lens: Vec<bool> = frame
+            .scene
+            .static_world
+            .mesh
+            .parts
+            .iter()
+            .map(|p| p.name == SIGNAL_LENS_PART)
             .collect();
         let part_role: Vec<Vec<u8>> = frame
             .scene
@@ -798,6 +867,8 @@ impl Renderer {
             lamp_lib: &self.lamp_lib,
             min_lux: self.config.lamps.min_illuminance_lux,
             part_role,
+            static_lens,
+            retro,
             bounces,
             max_crossings: self.config.max_glass_crossings,
             max_distance_m: self.config.max_distance_m,
@@ -1046,10 +1117,7 @@ impl Ctx<'_> {
             .scene
             .static_owner(t)
             .map_or((0, 0, u64::MAX), |o| {
-                let id = match o.element {
-                    StaticElement::Object(id) if id != osiris_proto::INVALID_ID => id,
-                    _ => u64::MAX,
-                };
+                let id = o.element.ground_truth_id().unwrap_or(u64::MAX);
                 (o.first_triangle, o.first_triangle + o.triangle_count, id)
             })
     }
@@ -1089,9 +1157,19 @@ impl Ctx<'_> {
         s.rays_n += if which { s.rays.len() } else { s.srays.len() } as u64;
     }
 
-    /// Whether a hit is on a lit lamp lens: the lamp index.
+    /// Whether a hit is on a lit lamp lens (a vehicle lamp, or the front of a lit traffic-signal
+    /// lens): the lamp index.
     fn lit_lamp(&self, hit: &Hit) -> Option<u32> {
-        let inst = hit.instance? as usize;
+        let Some(inst) = hit.instance else {
+            if !hit.front_face || !self.static_lens.get(usize::from(hit.part)).copied()? {
+                return None;
+            }
+            return match self.frame.scene.static_element(hit.triangle)? {
+                StaticElement::TrafficLight(id) => self.lamps.signal_lamps.get(&id).copied(),
+                _ => None,
+            };
+        };
+        let inst = inst as usize;
         let si = self.frame.scene.instances.get(inst)?;
         let role = *self.part_role.get(si.mesh)?.get(hit.part as usize)?;
         if role == 0 {
@@ -1416,6 +1494,15 @@ impl Ctx<'_> {
                 }
             }
         }
+        // Retroreflective lobe (wavelength-independent shape, coloured by the `retro_*` rows).
+        let retro = self.retro[m];
+        let fr = |wi: DVec3| -> f64 {
+            if retro {
+                mat.retro_brdf(Band::Visible(550.0), wi, wo, n)
+            } else {
+                0.0
+            }
+        };
         // Sun.
         let cos_s = n.dot(self.sun_dir);
         if self.sun_up && cos_s > 0.0 {
@@ -1424,8 +1511,10 @@ impl Ctx<'_> {
                 item,
                 rd: self.rows.sun(m) as u32,
                 rs: self.rows.sun_e() as u32,
+                rr: self.rows.retro_sun(m) as u32,
                 gd: (a * cos_s) as f32 * weight,
                 gs: (fs * cos_s) as f32 * weight,
+                gr: (fr(self.sun_dir) * cos_s) as f32 * weight,
                 beta,
             });
             // `sun_dir` is a unit vector already.
@@ -1438,7 +1527,7 @@ impl Ctx<'_> {
             });
         }
         // Lamps.
-        for lamp in &self.lamps.lamps {
+        for lamp in self.lamps.lamps.iter().filter(|l| l.illuminates) {
             let d = lamp.position - p;
             let r2 = d.length_squared();
             if r2 < 1e-6 {
@@ -1461,8 +1550,10 @@ impl Ctx<'_> {
                 item,
                 rd: self.rows.lamp(lamp.spectrum, m) as u32,
                 rs: self.rows.lamp_s(lamp.spectrum) as u32,
+                rr: self.rows.retro_lamp(lamp.spectrum, m) as u32,
                 gd: (a * e) as f32 * weight,
                 gs: (fs * e) as f32 * weight,
+                gr: (fr(wi) * e) as f32 * weight,
                 beta,
             });
             s.srays.push(
@@ -1487,14 +1578,15 @@ impl Ctx<'_> {
             let acc = &mut s.acc[i * nl..(i + 1) * nl];
             let td = &self.table[pd.rd as usize * nl..(pd.rd as usize + 1) * nl];
             let ts = &self.table[pd.rs as usize * nl..(pd.rs as usize + 1) * nl];
+            let tr = &self.table[pd.rr as usize * nl..(pd.rr as usize + 1) * nl];
             if pd.beta {
                 let b = &s.beta[i * nl..(i + 1) * nl];
                 for l in 0..nl {
-                    acc[l] += b[l] * (pd.gd * td[l] + pd.gs * ts[l]);
+                    acc[l] += b[l] * (pd.gd * td[l] + pd.gs * ts[l] + pd.gr * tr[l]);
                 }
             } else {
                 for l in 0..nl {
-                    acc[l] += pd.gd * td[l] + pd.gs * ts[l];
+                    acc[l] += pd.gd * td[l] + pd.gs * ts[l] + pd.gr * tr[l];
                 }
             }
         }

@@ -24,7 +24,10 @@
 //! UN ECE photometric test-point limits listed at each function. Those limits are recalled from
 //! UN ECE R112 (headlamps, class B passing beam, right-hand traffic) and R7 (rear position lamps)
 //! and are **UNVERIFIED** against the Regulations' current texts. The spectral shapes
-//! ([`SpectrumShape::white_led`], [`SpectrumShape::red_led`]) are likewise representative.
+//! ([`SpectrumShape::white_led`], [`SpectrumShape::red_led`]) are likewise representative. The
+//! traffic-signal distribution ([`LightDistribution::en12368_signal`]) and the signal LED lines
+//! ([`Spectrum::signal_red`], …) are representative of EN 12368 signal heads (physics.md §3.7), not
+//! checked against the standard.
 
 use crate::constants::{BOLTZMANN_J_PER_K, PLANCK_J_S, SPEED_OF_LIGHT_M_S};
 use glam::DVec3;
@@ -366,7 +369,38 @@ impl LightDistribution {
         LightDistribution::from_fn(h, v, |h, v| 8.0 * g(h / 30.0) * g(v / 15.0))
             .expect("valid grid")
     }
+
+    /// Representative **traffic-signal light** (EN 12368 signal head roundel, physics.md §3.7):
+    /// `I = I₀ · g(h/σ_h) · g(v/σ_v)` with `g(x) = exp(−x²)`, [`SIGNAL_WIDTH_H_DEG`] = 15° and
+    /// [`SIGNAL_WIDTH_V_DEG`] = 8° (1/e half-widths) on |h| ≤ 60°, |v| ≤ 30° (documented choice,
+    /// not a product: a medium-wide beam aimed along the reference axis). `on_axis_cd` is I₀:
+    /// [`SIGNAL_200MM_CD`] / [`SIGNAL_300MM_CD`] for the two roundel sizes.
+    ///
+    /// EN 12368 grades the on-axis intensity in classes (recalled, **UNVERIFIED**: class 1
+    /// 100–400 cd, class 2 200–800 cd, class 3 400–1000 cd) and the beam width in types (wide,
+    /// medium, narrow) by the fraction of I₀ required at off-axis test points; the widths here
+    /// are **not** checked against those points.
+    pub fn en12368_signal(on_axis_cd: f64) -> Self {
+        let g = |x: f64| (-x * x).exp();
+        let h: Vec<f64> = (-60..=60).map(|k| k as f64).collect();
+        let v: Vec<f64> = (-30..=30).map(|k| k as f64).collect();
+        LightDistribution::from_fn(h, v, |h, v| {
+            on_axis_cd * g(h / SIGNAL_WIDTH_H_DEG) * g(v / SIGNAL_WIDTH_V_DEG)
+        })
+        .expect("valid grid")
+    }
 }
+
+/// On-axis luminous intensity of a 200 mm traffic-signal roundel, cd (**representative**: inside
+/// the recalled EN 12368 class 1 / class 2 ranges, UNVERIFIED).
+pub const SIGNAL_200MM_CD: f64 = 400.0;
+/// On-axis luminous intensity of a 300 mm traffic-signal roundel, cd (**representative**: inside
+/// the recalled EN 12368 class 2 / class 3 ranges, UNVERIFIED).
+pub const SIGNAL_300MM_CD: f64 = 800.0;
+/// Horizontal 1/e half-width of [`LightDistribution::en12368_signal`], deg (**representative**).
+pub const SIGNAL_WIDTH_H_DEG: f64 = 15.0;
+/// Vertical 1/e half-width of [`LightDistribution::en12368_signal`], deg (**representative**).
+pub const SIGNAL_WIDTH_V_DEG: f64 = 8.0;
 
 // ---------------------------------------------------------------------------------------------
 // Spectra
@@ -435,6 +469,14 @@ impl SpectrumShape {
             peak_nm: 625.0,
             fwhm_nm: 20.0,
         }
+    }
+
+    /// Representative traffic-signal LED line of a signal colour (Gaussian; peaks and widths typical
+    /// of AlInGaP red 630 nm / amber 590 nm and InGaN green 505 nm / blue 470 nm signal LEDs,
+    /// **representative, UNVERIFIED**, not from a datasheet; FWHM 20 / 15 / 30 / 25 nm). White
+    /// signals use [`SpectrumShape::white_led`].
+    pub fn signal_led(peak_nm: f64, fwhm_nm: f64) -> Self {
+        SpectrumShape::Gaussian { peak_nm, fwhm_nm }
     }
 
     /// Relative spectral power at `lambda_nm` (arbitrary units, ≥ 0).
@@ -518,6 +560,26 @@ impl Spectrum {
     /// Representative red LED, normalised.
     pub fn red_led() -> Spectrum {
         Spectrum::new(SpectrumShape::red_led()).expect("red LED spectrum is luminous")
+    }
+
+    /// Representative red signal LED (630 nm, FWHM 20 nm), normalised.
+    pub fn signal_red() -> Spectrum {
+        Spectrum::new(SpectrumShape::signal_led(630.0, 20.0)).expect("luminous")
+    }
+
+    /// Representative amber (yellow) signal LED (590 nm, FWHM 15 nm), normalised.
+    pub fn signal_yellow() -> Spectrum {
+        Spectrum::new(SpectrumShape::signal_led(590.0, 15.0)).expect("luminous")
+    }
+
+    /// Representative green (cyan-green) signal LED (505 nm, FWHM 30 nm), normalised.
+    pub fn signal_green() -> Spectrum {
+        Spectrum::new(SpectrumShape::signal_led(505.0, 30.0)).expect("luminous")
+    }
+
+    /// Representative blue signal LED (470 nm, FWHM 25 nm), normalised.
+    pub fn signal_blue() -> Spectrum {
+        Spectrum::new(SpectrumShape::signal_led(470.0, 25.0)).expect("luminous")
     }
 
     /// The underlying shape.

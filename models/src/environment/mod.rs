@@ -5,6 +5,7 @@
 //!   reflectance, NIR BRDF at 905/1550 nm, 76–81 GHz permittivity (Fresnel), transmission, wet variants.
 //! * [`assets`]: built-in parametric assets (`osiris:<asset>?<param>=<value>&...`) and user meshes.
 //! * [`scene`]: OSI GroundTruth → scene (road, lane markings, object instances).
+//! * [`traffic`]: traffic signs, traffic lights and road markings of the scene (geometry, materials).
 //! * [`sun`]: sun position (NREL SPA).
 //! * [`sky`]: clear-sky direct and diffuse spectral irradiance (SPCTRAL2).
 //! * [`weather`]: rain and fog extinction per band, wet road.
@@ -18,6 +19,7 @@ pub mod scene;
 pub mod sky;
 pub mod sky_distribution;
 pub mod sun;
+pub mod traffic;
 pub mod weather;
 
 /// Every effect of the environment model (materials, weather, sky distribution).

@@ -88,6 +88,9 @@ use super::assets::{
 };
 use super::material::{MaterialDb, MaterialError, MaterialId};
 use super::mesh::{Mesh, Part};
+use super::traffic::{
+    SceneRoadMarking, SceneSignalBulb, SceneTrafficSign, SheetingClass, TrafficSettings,
+};
 use crate::frames::{
     Pose, moving_object_pose, moving_object_twist, stationary_object_pose, vec3_from_osi,
 };
@@ -145,6 +148,14 @@ pub struct SceneOptions {
     pub asset_dir: Option<PathBuf>,
     /// Treat unusable non-`osiris:` model references as errors instead of falling back.
     pub strict_references: bool,
+    /// Retroreflective sheeting class of traffic-sign faces (EN 12899-1; default RA2).
+    pub sign_sheeting: SheetingClass,
+    /// Give traffic signs a post from the road up to their plates.
+    pub sign_posts: bool,
+    /// Outer diameter of sign posts, m (**guessed**: the 60.3 mm steel tube common for sign posts).
+    pub sign_post_diameter_m: f64,
+    /// Depth of traffic-signal housings behind the lenses, m (**guessed**).
+    pub signal_housing_depth_m: f64,
 }
 
 impl Default for SceneOptions {
@@ -165,6 +176,10 @@ impl Default for SceneOptions {
             fallback_plane_half_size_m: 500.0,
             asset_dir: None,
             strict_references: false,
+            sign_sheeting: SheetingClass::Ra2,
+            sign_posts: true,
+            sign_post_diameter_m: 0.0603,
+            signal_housing_depth_m: 0.25,
         }
     }
 }
@@ -215,6 +230,36 @@ pub enum StaticElement {
     Marking(u64),
     /// Stationary object with this id (`INVALID_ID` when it has none).
     Object(u64),
+    /// A plate (face, back, rim) of the OSI `TrafficSign` with this id: its main sign or one of its
+    /// supplementary signs (which have no id of their own).
+    TrafficSign(u64),
+    /// The post of the traffic sign with this id (not part of the sign's OSI box).
+    SignPost(u64),
+    /// The lens of the OSI `TrafficLight` (one bulb) with this id.
+    TrafficLight(u64),
+    /// A traffic-signal housing; the id is that of the first bulb it holds.
+    SignalHousing(u64),
+    /// The painted area of the OSI `RoadMarking` with this id.
+    RoadMarking(u64),
+}
+
+impl StaticElement {
+    /// The ground-truth id the sensors report for this element (the camera's object mask, LiDAR
+    /// points): stationary objects, traffic-sign plates, traffic-light lenses and road markings;
+    /// `None` for road, lane markings, sign posts, signal housings and elements without an id.
+    pub fn ground_truth_id(self) -> Option<u64> {
+        match self {
+            StaticElement::Object(id)
+            | StaticElement::TrafficSign(id)
+            | StaticElement::TrafficLight(id)
+            | StaticElement::RoadMarking(id)
+                if id != INVALID_ID =>
+            {
+                Some(id)
+            }
+            _ => None,
+        }
+    }
 }
 
 /// Static-world triangles `first_triangle .. first_triangle + triangle_count` belong to `element`.
@@ -287,6 +332,9 @@ impl SceneBuilder {
             },
             static_owners: Vec::new(),
             static_phase_centres: Vec::new(),
+            traffic_signs: Vec::new(),
+            signal_bulbs: Vec::new(),
+            road_markings: Vec::new(),
             meshes: Vec::new(),
             instances: Vec::new(),
             materials: self.materials,
@@ -318,6 +366,12 @@ pub struct Scene {
     pub static_owners: Vec<StaticOwner>,
     /// Phase centres (scene frame) of the stationary objects whose asset has one, by object id.
     pub static_phase_centres: Vec<(u64, DVec3)>,
+    /// The traffic signs of the static world (plates, post), scene frame.
+    pub traffic_signs: Vec<SceneTrafficSign>,
+    /// The traffic-light bulbs of the static world (lens centre, axis, size, colour), scene frame.
+    pub signal_bulbs: Vec<SceneSignalBulb>,
+    /// The road markings of the static world (painted outline), scene frame.
+    pub road_markings: Vec<SceneRoadMarking>,
     /// Meshes of the moving objects (object frame); instances refer to them by index.
     pub meshes: Vec<Arc<SceneMesh>>,
     /// Moving objects except the host.
@@ -355,6 +409,8 @@ fn check_options(o: &SceneOptions) -> Result<(), SceneError> {
         ("max_segment_m", o.max_segment_m),
         ("fallback_plane_half_size_m", o.fallback_plane_half_size_m),
         ("rebase_distance_m", o.rebase_distance_m),
+        ("sign_post_diameter_m", o.sign_post_diameter_m),
+        ("signal_housing_depth_m", o.signal_housing_depth_m),
     ] {
         if !(v.is_finite() && v > 0.0) {
             return Err(bad(name, v, "a finite number > 0"));
@@ -552,6 +608,41 @@ fn static_signature(gt: &osi3::GroundTruth, wet_materials: bool) -> u64 {
                     ..Default::default()
                 }
             }),
+            ..Default::default()
+        };
+        key.encode_to_vec().hash(&mut h);
+    }
+    // Traffic signs (all of the message: type and size decide the plates), traffic lights (not their
+    // mode or counter: switching a light does not change the geometry), road markings.
+    for s in &gt.traffic_sign {
+        s.encode_to_vec().hash(&mut h);
+    }
+    for l in &gt.traffic_light {
+        let key = osi3::TrafficLight {
+            id: l.id,
+            base: l.base.clone(),
+            classification: l.classification.as_ref().map(|c| {
+                osi3::traffic_light::Classification {
+                    color: c.color,
+                    ..Default::default()
+                }
+            }),
+            ..Default::default()
+        };
+        key.encode_to_vec().hash(&mut h);
+    }
+    for m in &gt.road_marking {
+        let key = osi3::RoadMarking {
+            id: m.id,
+            base: m.base.clone(),
+            classification: m
+                .classification
+                .as_ref()
+                .map(|c| osi3::road_marking::Classification {
+                    r#type: c.r#type,
+                    monochrome_color: c.monochrome_color,
+                    ..Default::default()
+                }),
             ..Default::default()
         };
         key.encode_to_vec().hash(&mut h);
@@ -1050,24 +1141,27 @@ impl Scene {
     }
 
     fn road_materials(&mut self) -> (String, String) {
-        let wet = self.options.use_wet_materials && self.wet;
-        let variant = |db: &mut MaterialDb, name: &str| -> String {
-            if !wet {
-                return name.to_string();
-            }
-            let candidate = match name.strip_suffix("_dry") {
-                Some(stem) => format!("{stem}_wet"),
-                None => format!("{name}_wet"),
-            };
-            if db.resolve(&candidate).is_ok() {
-                candidate
-            } else {
-                name.to_string()
-            }
-        };
-        let road = variant(&mut self.materials, &self.options.road_material.clone());
-        let marking = variant(&mut self.materials, &self.options.marking_material.clone());
+        let road = self.surface_variant(&self.options.road_material.clone());
+        let marking = self.surface_variant(&self.options.marking_material.clone());
         (road, marking)
+    }
+
+    /// The material in effect for a road-surface material name: its `_wet` variant (`x_dry` →
+    /// `x_wet`, `x` → `x_wet`) when the road is wet, `use_wet_materials` is set and the database
+    /// has the variant; else the name itself.
+    fn surface_variant(&mut self, name: &str) -> String {
+        if !(self.options.use_wet_materials && self.wet) {
+            return name.to_string();
+        }
+        let candidate = match name.strip_suffix("_dry") {
+            Some(stem) => format!("{stem}_wet"),
+            None => format!("{name}_wet"),
+        };
+        if self.materials.resolve(&candidate).is_ok() {
+            candidate
+        } else {
+            name.to_string()
+        }
     }
 
     fn rebuild_static(&mut self, gt: &osi3::GroundTruth) -> Result<(), SceneError> {
@@ -1123,6 +1217,7 @@ impl Scene {
             }
             w.own(first, StaticElement::RoadPlane);
         }
+        let road_vertices = w.mesh.positions.len();
 
         // Lane markings.
         {
@@ -1201,6 +1296,44 @@ impl Scene {
             }
         }
 
+        // Traffic signs, traffic lights, road markings.
+        let road_z: Vec<glam::Vec3> = w.mesh.positions[..road_vertices].to_vec();
+        let origin = self.origin;
+        let fallback_z = fallback_plane_z(host_object(gt, self.host_id));
+        let ground_z = move |p: DVec3| -> f64 {
+            let q = (p - origin).as_vec3();
+            road_z
+                .iter()
+                .min_by(|a, b| {
+                    let da = (a.x - q.x).powi(2) + (a.y - q.y).powi(2);
+                    let db = (b.x - q.x).powi(2) + (b.y - q.y).powi(2);
+                    da.total_cmp(&db)
+                })
+                .map_or(fallback_z, |v| f64::from(v.z) + origin.z)
+        };
+        let paints: HashMap<&str, String> = ["lane_paint_white", "lane_paint_yellow"]
+            .into_iter()
+            .map(|n| (n, self.surface_variant(n)))
+            .collect();
+        let paint = |n: &str| paints.get(n).cloned().unwrap_or_else(|| n.to_string());
+        let traffic = super::traffic::build(
+            gt,
+            &TrafficSettings {
+                origin,
+                sheeting: self.options.sign_sheeting,
+                sign_posts: self.options.sign_posts,
+                post_diameter_m: self.options.sign_post_diameter_m,
+                housing_depth_m: self.options.signal_housing_depth_m,
+                marking_height_m: self.options.marking_height_m,
+                ground_z: &ground_z,
+                paint: &paint,
+            },
+        );
+        for piece in &traffic.pieces {
+            w.place(&piece.mesh, &piece.pose, piece.element);
+        }
+        self.warnings.extend(traffic.warnings);
+
         let part_material = resolve_parts(&mut self.materials, "static world", &w.mesh.parts)?;
         self.static_world = SceneMesh {
             key: "static world".into(),
@@ -1210,6 +1343,9 @@ impl Scene {
         };
         self.static_owners = w.owners;
         self.static_phase_centres = phase_centres;
+        self.traffic_signs = traffic.signs;
+        self.signal_bulbs = traffic.bulbs;
+        self.road_markings = traffic.markings;
         self.static_signature = static_signature(gt, self.options.use_wet_materials && self.wet);
         self.static_revision += 1;
         Ok(())

@@ -813,6 +813,20 @@ fn surface_key(hit: &Hit, scene: Option<&Scene>) -> (u64, u64) {
             Some(StaticElement::RoadPlane) => (2, osiris_proto::INVALID_ID),
             Some(StaticElement::Marking(i)) => (splitmix64(i ^ 0x3333), osiris_proto::INVALID_ID),
             Some(StaticElement::Object(i)) => (splitmix64(i ^ 0x4444) ^ u64::from(hit.part), i),
+            Some(e @ (StaticElement::TrafficSign(i) | StaticElement::TrafficLight(i))) => (
+                splitmix64(i ^ 0x5555) ^ u64::from(hit.part),
+                e.ground_truth_id().unwrap_or(osiris_proto::INVALID_ID),
+            ),
+            Some(StaticElement::SignPost(i)) => (splitmix64(i ^ 0x6666), osiris_proto::INVALID_ID),
+            Some(StaticElement::SignalHousing(i)) => {
+                (splitmix64(i ^ 0x7777), osiris_proto::INVALID_ID)
+            }
+            Some(StaticElement::RoadMarking(i)) => (
+                splitmix64(i ^ 0x8888),
+                StaticElement::RoadMarking(i)
+                    .ground_truth_id()
+                    .unwrap_or(osiris_proto::INVALID_ID),
+            ),
             None => (1, osiris_proto::INVALID_ID),
         },
     }

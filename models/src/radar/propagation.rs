@@ -929,7 +929,14 @@ impl Propagator {
             self.stationary.clear();
             let m = &scene.static_world.mesh;
             for o in &scene.static_owners {
-                if let StaticElement::Object(id) = o.element {
+                // Stationary objects and the road furniture of traffic signs and lights: targets
+                // the tubes are launched at (road markings are road).
+                if let StaticElement::Object(id)
+                | StaticElement::TrafficSign(id)
+                | StaticElement::SignPost(id)
+                | StaticElement::TrafficLight(id)
+                | StaticElement::SignalHousing(id) = o.element
+                {
                     let mut a = DVec3::splat(f64::INFINITY);
                     let mut b = DVec3::splat(f64::NEG_INFINITY);
                     for t in o.first_triangle..o.first_triangle + o.triangle_count {
@@ -1298,9 +1305,18 @@ impl Propagator {
         match hit.object_id {
             Some(id) => Owner::Object(id),
             None => match scene.static_element(hit.triangle) {
-                Some(StaticElement::Object(id)) => Owner::Stationary(id),
                 Some(
-                    StaticElement::Lane(_) | StaticElement::RoadPlane | StaticElement::Marking(_),
+                    StaticElement::Object(id)
+                    | StaticElement::TrafficSign(id)
+                    | StaticElement::SignPost(id)
+                    | StaticElement::TrafficLight(id)
+                    | StaticElement::SignalHousing(id),
+                ) => Owner::Stationary(id),
+                Some(
+                    StaticElement::Lane(_)
+                    | StaticElement::RoadPlane
+                    | StaticElement::Marking(_)
+                    | StaticElement::RoadMarking(_),
                 ) => Owner::Road,
                 None => Owner::Other,
             },

@@ -40,6 +40,7 @@
 
 pub mod geometry;
 mod roadside;
+pub mod signals;
 mod targets;
 mod user;
 mod vehicles;

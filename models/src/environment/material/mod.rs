@@ -615,6 +615,32 @@ impl Material {
         }
     }
 
+    /// The retroreflective lobe alone, `R(wi, wo)` in `band`, sr⁻¹: the part of
+    /// [`Material::eval_brdf`] that [`Material::brdf_parts`] leaves out (0 without a lobe or when
+    /// either direction is below the surface; the `env.retroreflection` switch is the caller's).
+    pub fn retro_brdf(&self, band: Band, wi: DVec3, wo: DVec3, n: DVec3) -> f64 {
+        let cos_i = n.dot(wi);
+        let cos_o = n.dot(wo);
+        if cos_i <= 0.0 || cos_o <= 0.0 {
+            return 0.0;
+        }
+        self.retro_lobe(band)
+            .map_or(0.0, |r| r.eval(wi, wo, cos_i, cos_o))
+    }
+
+    /// Whether the material has a retroreflective lobe in `band`.
+    pub fn has_retro(&self, band: Band) -> bool {
+        self.retro_lobe(band).is_some()
+    }
+
+    fn retro_lobe(&self, band: Band) -> Option<&RetroLobe> {
+        match band {
+            Band::Visible(_) => self.visible.retro.as_ref(),
+            Band::Nir905 => self.nir905.retro.as_ref(),
+            Band::Nir1550 => self.nir1550.retro.as_ref(),
+        }
+    }
+
     /// Whether the material has a specular lobe in `band`.
     pub fn has_specular(&self, band: Band) -> bool {
         self.specular_lobe(band).is_some()
