@@ -10,7 +10,9 @@
 //! # Traffic lights (one OSI `TrafficLight` per bulb)
 //!
 //! 1. **Visible**: the bulb's pixels in the mask (its lens; the renderer gives each bulb's lens its
-//!    OSI id). A bulb with fewer than `light_min_px` pixels is not reported.
+//!    OSI id). A bulb with fewer than `light_min_px` pixels (6, guessed: a lens under ≈ 3 px across
+//!    blurs into the neighbouring bulbs of its head through the lens's point-spread function) is
+//!    not reported.
 //! 2. **Lit or dark** (`physics.md §8.2`): `ρ = L_lens / L_ref` with `L_lens` the mean luminance of the brightest
 //!    quarter of the lens pixels (at least one) and `L_ref` the median luminance of a ring of
 //!    `max(1, ⌈d_px/4⌉)` px around the lens box, without the lens (the housing or back plate);
@@ -130,7 +132,7 @@ pub struct TrafficRecognitionConfig {
 impl Default for TrafficRecognitionConfig {
     fn default() -> Self {
         TrafficRecognitionConfig {
-            light_min_px: 2,
+            light_min_px: 6,
             light_lit_ratio: 2.0,
             sign_min_height_px: 10.0,
             sign_height_50_px: 16.0,
