@@ -24,7 +24,10 @@
 //!    cone, …) is reported in `stationary_object` as a `DetectedStationaryObject` — header,
 //!    `base` (position, dimension, orientation) and one candidate with probability 1 whose
 //!    `StationaryObject.Classification` (type, material, density, colour) is copied from the ground
-//!    truth ([`stationary_candidate`]). A ground-truth `MovingObject` stays a moving object whatever
+//!    truth ([`stationary_candidate`]). A detected object whose ground truth is a traffic sign,
+//!    traffic-light bulb or road marking (a LiDAR cluster or radar track of a sign plate and its
+//!    post) is stationary likewise, with a `TYPE_OTHER` candidate, metal for signs and signal
+//!    heads ([`traffic_control_candidate`]). A ground-truth `MovingObject` stays a moving object whatever
 //!    its speed (OSI: `moving_object` is about the kind of object, not its motion; a standing
 //!    pedestrian is a moving object with movement state STATIONARY). A detected object without any
 //!    ground truth (a false alarm) stays a moving object. The physical recognitions have no
@@ -70,6 +73,17 @@ use crate::frames::{
 pub enum TruthRef<'a> {
     Moving(&'a osi3::MovingObject),
     Stationary(&'a osi3::StationaryObject),
+    /// A traffic sign, traffic-light bulb or road marking (stationary ground truth outside
+    /// `stationary_object`).
+    TrafficControl(TrafficControlKind),
+}
+
+/// What kind of traffic-control entity a ground-truth id names.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TrafficControlKind {
+    Sign,
+    Light,
+    Marking,
 }
 
 /// Ground-truth objects by id.
@@ -92,6 +106,27 @@ impl<'a> TruthIndex<'a> {
                 by_id.insert(v, TruthRef::Stationary(o));
             }
         }
+        let traffic = [
+            (
+                TrafficControlKind::Sign,
+                gt.traffic_sign.iter().map(|t| t.id).collect::<Vec<_>>(),
+            ),
+            (
+                TrafficControlKind::Light,
+                gt.traffic_light.iter().map(|t| t.id).collect(),
+            ),
+            (
+                TrafficControlKind::Marking,
+                gt.road_marking.iter().map(|t| t.id).collect(),
+            ),
+        ];
+        for (kind, ids) in traffic {
+            for v in ids.into_iter().filter_map(|i| i.and_then(|i| i.value)) {
+                by_id
+                    .entry(v)
+                    .or_insert(TruthRef::TrafficControl(kind));
+            }
+        }
         TruthIndex { by_id }
     }
 
@@ -99,9 +134,12 @@ impl<'a> TruthIndex<'a> {
         self.by_id.get(&id).copied()
     }
 
-    /// Whether `id` is a ground-truth stationary object.
+    /// Whether `id` is stationary ground truth (a stationary object or a traffic-control entity).
     pub fn is_stationary(&self, id: u64) -> bool {
-        matches!(self.get(id), Some(TruthRef::Stationary(_)))
+        matches!(
+            self.get(id),
+            Some(TruthRef::Stationary(_) | TruthRef::TrafficControl(_))
+        )
     }
 }
 
@@ -187,12 +225,34 @@ pub fn stationary_candidate(
     }
 }
 
-/// A detected moving object as a detected stationary object of ground truth `truth`: the same
-/// header, position, dimension and orientation, sensor-specific data; the candidate from
-/// [`stationary_candidate`]. Velocity, movement state and the moving candidates are dropped.
+/// The candidate of a detected traffic sign or signal head seen as structure by a LiDAR or radar:
+/// `TYPE_OTHER` (OSI has no stationary-object type for them), metal, solid; a road marking:
+/// `TYPE_OTHER`, other material.
+pub fn traffic_control_candidate(
+    kind: TrafficControlKind,
+) -> osi3::detected_stationary_object::CandidateStationaryObject {
+    use osi3::stationary_object::classification::{Density, Material, Type};
+    let material = match kind {
+        TrafficControlKind::Sign | TrafficControlKind::Light => Material::Metal,
+        TrafficControlKind::Marking => Material::Other,
+    };
+    osi3::detected_stationary_object::CandidateStationaryObject {
+        probability: Some(1.0),
+        classification: Some(osi3::stationary_object::Classification {
+            r#type: Some(Type::Other as i32),
+            material: Some(material as i32),
+            density: Some(Density::Solid as i32),
+            ..Default::default()
+        }),
+    }
+}
+
+/// A detected moving object as a detected stationary object with the candidate `candidate`: the
+/// same header, position, dimension and orientation, sensor-specific data. Velocity, movement
+/// state and the moving candidates are dropped.
 pub fn stationary_from_moving(
     m: osi3::DetectedMovingObject,
-    truth: &osi3::StationaryObject,
+    candidate: osi3::detected_stationary_object::CandidateStationaryObject,
 ) -> osi3::DetectedStationaryObject {
     let base = m.base.map(|b| osi3::BaseStationary {
         dimension: b.dimension,
@@ -210,7 +270,7 @@ pub fn stationary_from_moving(
         header: m.header,
         base,
         base_rmse,
-        candidate: vec![stationary_candidate(truth)],
+        candidate: vec![candidate],
         color_description: m.color_description,
         radar_specifics: m.radar_specifics,
         lidar_specifics: m.lidar_specifics,
@@ -251,7 +311,12 @@ pub fn split_by_truth(
     for m in moving {
         match truth_id_of(m.header.as_ref(), last_truth).and_then(|g| truth.get(g)) {
             Some(TruthRef::Stationary(s)) => {
-                sd.stationary_object.push(stationary_from_moving(m, s));
+                sd.stationary_object
+                    .push(stationary_from_moving(m, stationary_candidate(s)));
+            }
+            Some(TruthRef::TrafficControl(kind)) => {
+                sd.stationary_object
+                    .push(stationary_from_moving(m, traffic_control_candidate(kind)));
             }
             _ => sd.moving_object.push(m),
         }

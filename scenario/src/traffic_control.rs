@@ -25,6 +25,9 @@
 //!   `RoadMarking` with its outline in `base.base_polygon` (the marking's local frame, x along the
 //!   road, counter-clockwise), the box centre on the road (`z = 0`, height 0).
 //! * Signs apply to every driving lane (`assigned_lane_id`); markings to the lane they lie in.
+//! * Country `DE`, revision `2017` (the German traffic-sign catalogue VzKat 2017) and its codes
+//!   (274 speed limit, 131 signals ahead, 206 stop, 205 give way, 294 stop line, 297 arrows; the
+//!   arrow sub-codes are osiris' own numbering).
 //! * Ids: signs `3000 + i`, bulbs `4000 + 10 i + b` (b = 0 red, 1 yellow, 2 green), markings
 //!   `5000 + i`, unless given.
 
@@ -348,8 +351,9 @@ pub(crate) fn traffic_signs(
                         vertically_mirrored: Some(false),
                         is_out_of_service: Some(false),
                         country: Some("DE".into()),
+                        country_revision: Some("2017".into()),
                         code: Some(code.into()),
-                        sub_code: s.value.map(|v| format!("{v}")),
+                        sub_code: Some(s.value.map(|v| format!("{v}")).unwrap_or_default()),
                         ..Default::default()
                     }),
                     model_reference: None,
@@ -467,19 +471,26 @@ pub(crate) fn road_markings(
         .map(|(i, m)| {
             let y = road.lane_center_y(m.lane);
             let (poly, size) = outline(m.kind, road.lane_width_m);
-            let (ty, sign) = match m.kind {
-                MarkingKind::StopLine => (Type::GenericLine, None),
+            // German catalogue codes (VzKat): Zeichen 294 stop line, 297 lane arrows.
+            let (ty, sign, code, sub_code) = match m.kind {
+                MarkingKind::StopLine => (Type::GenericLine, SignType::Other, "294", ""),
                 MarkingKind::ArrowStraight => (
                     Type::SymbolicTrafficSign,
-                    Some(SignType::PrescribedStraight),
+                    SignType::PrescribedStraight,
+                    "297",
+                    "10",
                 ),
                 MarkingKind::ArrowLeft => (
                     Type::SymbolicTrafficSign,
-                    Some(SignType::PrescribedLeftTurn),
+                    SignType::PrescribedLeftTurn,
+                    "297",
+                    "11",
                 ),
                 MarkingKind::ArrowRight => (
                     Type::SymbolicTrafficSign,
-                    Some(SignType::PrescribedRightTurn),
+                    SignType::PrescribedRightTurn,
+                    "297",
+                    "12",
                 ),
             };
             let mut b = base([m.x_m, y, 0.0], [size[0], size[1], 0.0], 0.0);
@@ -495,10 +506,14 @@ pub(crate) fn road_markings(
                 base: Some(b),
                 classification: Some(Classification {
                     r#type: Some(ty as i32),
-                    traffic_main_sign_type: sign.map(|s| s as i32),
+                    traffic_main_sign_type: Some(sign as i32),
                     monochrome_color: Some(Color::White as i32),
                     assigned_lane_id: lane_ids(y),
                     is_out_of_service: Some(false),
+                    country: Some("DE".into()),
+                    country_revision: Some("2017".into()),
+                    code: Some(code.into()),
+                    sub_code: Some(sub_code.into()),
                     ..Default::default()
                 }),
                 ..Default::default()

@@ -68,7 +68,9 @@ def scenario() -> dict:
 @pytest.fixture(scope="session")
 def truth_ids(scenario) -> dict:
     """Ground-truth ids by kind, from the scenario JSON and the documented id scheme (ego `1` or
-    `ego.id`, road users `100 + i`, static objects `500 + i`, guardrail `900`, explicit ids win)."""
+    `ego.id`, road users `100 + i`, static objects `500 + i`, guardrail `900`, traffic signs
+    `3000 + i`, signal-head bulbs `4000 + 10 i + b`, road markings `5000 + i`, explicit ids win).
+    Traffic signs, bulbs and markings are stationary ground truth."""
     moving = {scenario["ego"].get("id", 1)}
     pedestrians = set()
     for i, u in enumerate(scenario["road_users"]):
@@ -79,6 +81,10 @@ def truth_ids(scenario) -> dict:
     stationary = {s.get("id", 500 + i) for i, s in enumerate(scenario["static_objects"])}
     if scenario.get("guardrail"):
         stationary.add(scenario["guardrail"].get("id", 900))
+    stationary |= {s.get("id", 3000 + i) for i, s in enumerate(scenario.get("traffic_signs", []))}
+    for i, h in enumerate(scenario.get("signal_heads", [])):
+        stationary |= {h.get("id", 4000 + 10 * i) + b for b in range(3)}
+    stationary |= {m.get("id", 5000 + i) for i, m in enumerate(scenario.get("road_markings", []))}
     assert not moving & stationary
     return {"moving": moving, "stationary": stationary, "pedestrians": pedestrians}
 

@@ -19,7 +19,8 @@
 //!    lit iff `ρ ≥ light_lit_ratio` (guessed 2.0). A lit LED lens captured while its PWM is off
 //!    (`camera.led_flicker` with an exposure shorter than the PWM period) has the luminance of a dark
 //!    lens and is read as off: a **state misread** (counted per frame in `PerceptionData`).
-//! 3. **Output** (`DetectedTrafficLight`): colour = the bulb's colour (a recogniser knows which
+//! 3. **Output** (`DetectedTrafficLight`; copied classifications drop their lane assignments,
+//!    which name ground-truth lanes): colour = the bulb's colour (a recogniser knows which
 //!    position of a head is red, yellow, green; the colour is not re-estimated from clipped pixels),
 //!    icon from the ground truth, mode = `CONSTANT` (or the ground truth's `FLASHING`/`COUNTING`)
 //!    when read lit, `OFF` when read dark; position = the lens box centre's ray at the distance
@@ -530,7 +531,7 @@ impl TrafficRecognition {
             icon: class.icon,
             mode: Some(measured_mode),
             counter: None,
-            assigned_lane_id: class.assigned_lane_id.clone(),
+            assigned_lane_id: Vec::new(),
             is_out_of_service: class.is_out_of_service,
             logical_lane_assignment: Vec::new(),
         };
@@ -620,6 +621,9 @@ impl TrafficRecognition {
         // 3.–4. Classification and geometry.
         let main = sign.main_sign.clone().unwrap_or_default();
         let mut classification = main.classification.clone().unwrap_or_default();
+        // Lane assignments name ground-truth lanes, which a SensorData does not carry.
+        classification.assigned_lane_id.clear();
+        classification.logical_lane_assignment.clear();
         if !classified {
             classification = osi3::traffic_sign::main_sign::Classification {
                 r#type: Some(Type::Unknown as i32),
@@ -698,7 +702,12 @@ impl TrafficRecognition {
             )),
             candidate: vec![osi3::detected_road_marking::CandidateRoadMarking {
                 probability: Some(1.0),
-                classification: marking.classification.clone(),
+                classification: marking.classification.clone().map(|mut c| {
+                    // Lane assignments name ground-truth lanes, which a SensorData does not carry.
+                    c.assigned_lane_id.clear();
+                    c.logical_lane_assignment.clear();
+                    c
+                }),
             }],
             ..Default::default()
         });
