@@ -120,7 +120,9 @@ pub struct RenderAux {
     pub object_index: Vec<u32>,
     /// Distance along the primary ray to the first hit, m (`f32::INFINITY` for sky).
     pub depth_m: Vec<f32>,
-    /// Ground-truth ids (moving and stationary objects) referenced by `object_index`.
+    /// Ground-truth ids referenced by `object_index`: moving and stationary objects, traffic signs
+    /// (main and supplementary plates), traffic-light bulbs (lenses) and road markings
+    /// (`environment::scene::StaticElement::ground_truth_id`).
     pub object_ids: Vec<u64>,
 }
 

@@ -24,7 +24,14 @@
 //! * **Sun disk**: rays within [`crate::environment::sun::SUN_RADIUS_DEG`] of the sun direction see
 //!   `L = E_dni/Ω_sun`, `Ω_sun = 2π(1 − cos r_sun)` (uniform disk; limb darkening neglected).
 //! * **Vehicle lamps** ([`super::light`]): `L = ρ/π · I(θ)·cos θ_s/d² · s(λ)` with a shadow ray per
-//!   lamp and point; lit lenses seen directly emit `L_v = I/(A cos θ)`.
+//!   lamp and point; lit lenses seen directly emit `L_v = I/(A cos θ)`. Lit traffic-signal lenses
+//!   (static-world triangles of [`StaticElement::TrafficLight`] whose bulb the lamp plan lit) emit the
+//!   same way; signal lamps light other surfaces only with `render.lamps.signal_illumination`.
+//! * **Retroreflection** (`env.retroreflection`; sign sheeting, road-marking beads): for the sun and
+//!   each lamp, `L = f_retro(wi, wo) · E · s(λ) · ρ(λ)/ρ̄_A`, the material's retro lobe
+//!   ([`crate::environment::material::Material::retro_brdf`]) coloured by its diffuse reflectance
+//!   normalised to the luminous mean under CIE illuminant A (physics.md §3.6), with the light's shadow
+//!   ray. The sky is not retroreflected.
 //! * **Glass** (transmissive materials): the primary ray passes through up to
 //!   [`RenderConfig::max_glass_crossings`] panes ([`crate::space::Space::closest_hit_through`]) and
 //!   is attenuated by the slab transmittance at 550 nm and the incidence angle

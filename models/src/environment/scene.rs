@@ -24,8 +24,27 @@
 //!     default by classification type) sized to `base.dimension` and placed by `base.position` /
 //!     `base.orientation`.
 //!
-//!   [`Scene::static_owners`] says which triangles belong to which lane, boundary or object
-//!   ([`Scene::static_element`] looks a triangle up).
+//!   * Traffic signs, traffic lights and road markings (`GroundTruth.traffic_sign`, `traffic_light`,
+//!     `road_marking`; [`super::traffic`]): a plate per main and supplementary sign (sheeting face,
+//!     aluminium back) with a steel post, a lens disc per traffic-light bulb in a housing shared by
+//!     neighbouring bulbs, a painted polygon per road marking. Their records are
+//!     [`Scene::traffic_signs`], [`Scene::signal_bulbs`] and [`Scene::road_markings`].
+//!
+//!   [`Scene::static_owners`] says which triangles belong to which lane, boundary, object, sign,
+//!   bulb or marking ([`Scene::static_element`] looks a triangle up).
+//!
+//! # Ground-truth ids of static triangles
+//!
+//! [`StaticElement::ground_truth_id`] is the id a sensor reports for a static triangle: the
+//! stationary object's ([`StaticElement::Object`]), the OSI `TrafficSign`'s for its main and
+//! supplementary plates ([`StaticElement::TrafficSign`]; supplementary signs have no id of their own),
+//! the OSI `TrafficLight`'s (one bulb) for its lens ([`StaticElement::TrafficLight`]) and the
+//! `RoadMarking`'s for its paint ([`StaticElement::RoadMarking`]). Road, lane markings, sign posts
+//! ([`StaticElement::SignPost`]) and signal housings ([`StaticElement::SignalHousing`]) have none.
+//! The camera's per-pixel object mask (`camera::RenderAux::object_ids` / `object_index`) and the
+//! LiDAR's point ids use it, so a recognition finds a sign's, a bulb's or a marking's visible pixels
+//! by its OSI id. The radar treats plates, posts, lenses and housings as stationary targets under the
+//! sign's / (first) bulb's id and road markings as road.
 //! * **Meshes** ([`Scene::meshes`]): one [`SceneMesh`] per distinct (asset reference, OSI dimension
 //!   rounded to 1 mm) used by a moving object, in the object frame (origin = OSI box centre). 450
 //!   identical cars share one mesh. Indices are stable for the scene's lifetime and new meshes are only
@@ -54,8 +73,10 @@
 //! # Updates
 //!
 //! [`Scene::update`] re-reads a new `GroundTruth`: instances (poses, velocities, added and removed
-//! objects) every time; the static world only when lanes, lane boundaries, stationary objects or the
-//! wetness changed (a hash over them, [`Scene::static_revision`] counts rebuilds) or the origin moved.
+//! objects) every time; the static world only when lanes, lane boundaries, stationary objects,
+//! traffic signs, traffic lights (id, base, colour: not their mode, so a light switching rebuilds
+//! nothing), road markings or the wetness changed (a hash over them, [`Scene::static_revision`]
+//! counts rebuilds) or the origin moved.
 //!
 //! # Model references
 //!
