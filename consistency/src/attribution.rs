@@ -668,6 +668,8 @@ pub struct EffectResult {
     pub explained_share: f64,
     /// max |s − mean s| over the design, in the quantity's unit.
     pub max_contribution: f64,
+    /// The fitted parameters: for an accepted effect those of the final joint fit of every
+    /// accepted effect of the quantity, else those of the step it was last evaluated at.
     pub params: Vec<ParamEstimate>,
     pub tie_group: Option<String>,
     pub gates: Gates,
@@ -1061,6 +1063,26 @@ pub fn attribute_quantity(
         cur_k += cands[*wi].params().len();
         cur_fit = wfit.clone();
         cv_current = cv_winner;
+    }
+    // Every accepted effect's parameters as the final joint fit has them: one accepted at an earlier
+    // step was refitted together with each later one (a yaw fitted alone over a campaign whose
+    // radar calibrates itself halfway is a fraction of the yaw it has beside the calibration).
+    if current.len() > 1 {
+        let dof = n.saturating_sub(cur_k).max(1) as f64;
+        let infl = (cur_fit.chi2 / dof).max(1.0);
+        for (j, ci) in current.iter().enumerate() {
+            let order: Vec<usize> = (0..current.len()).filter(|&i| i != j).chain([j]).collect();
+            let effs: Vec<&dyn EffectSignature> =
+                order.iter().map(|&i| cands[current[i]]).collect();
+            let fit = Fit {
+                params: order.iter().map(|&i| cur_fit.params[i].clone()).collect(),
+                chi2: cur_fit.chi2,
+                offset: cur_fit.offset,
+            };
+            if let Some(r) = results.get_mut(ci) {
+                r.params = profile(&d, &w, &effs, &fit, infl);
+            }
+        }
     }
     // Pre-fit signature ties not involving an accepted or already grouped effect are reported too
     // (design remarks: these effects could not be told apart here if they were needed).
