@@ -72,9 +72,16 @@ pub fn has_offset(q: &str) -> bool {
             | quantity::ELEVATION_DEG
             | quantity::POINTS_LOG_RATIO
             | quantity::GAP_POINTS
+            | quantity::CLUTTER_COUNT
             | quantity::INTENSITY_SD_DB
             | quantity::RANGE_SD_M
     )
+}
+
+/// Whether a quantity's stations keep their own replicate variance instead of the pooled one
+/// (counts per frame: the radar's clutter detections per range band).
+pub fn per_station_variance(q: &str) -> bool {
+    q == quantity::CLUTTER_COUNT
 }
 
 fn hash2(a: u64, b: u64) -> u64 {
@@ -141,7 +148,22 @@ pub fn aggregate(rows: &[Row], q: &str, campaign: &Campaign) -> (Vec<Obs>, Noise
             _ => 0.0,
         };
         gt2 += gt * gt;
-        let sigma = (pooled_sd * pooled_sd / nf + gt * gt).sqrt().max(floor);
+        // Counts per frame and range band (radar clutter) are far from homoscedastic: a band of
+        // 25 clutter detections scatters by ±5 per frame, an empty one by 0. Each station keeps its
+        // own replicate variance, at least that of one count in its n frames (1/n: a band empty in
+        // every frame is still compatible with a mean of ~1/n).
+        let scatter2 = if per_station_variance(q) && n > 1 {
+            let m = r;
+            let s2 = list
+                .iter()
+                .map(|row| (row.resid() - m).powi(2))
+                .sum::<f64>()
+                / (nf - 1.0);
+            s2.max(1.0 / nf)
+        } else {
+            pooled_sd * pooled_sd
+        };
+        let sigma = (scatter2 / nf + gt * gt).sqrt().max(floor);
         let target = list[0].target;
         let mut group = 0u64;
         for g in &campaign.split.cv_group_by {
