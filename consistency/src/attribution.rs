@@ -72,9 +72,16 @@ pub fn has_offset(q: &str) -> bool {
             | quantity::ELEVATION_DEG
             | quantity::POINTS_LOG_RATIO
             | quantity::GAP_POINTS
+            | quantity::CLUTTER_COUNT
             | quantity::INTENSITY_SD_DB
             | quantity::RANGE_SD_M
     )
+}
+
+/// Whether a quantity's stations keep their own replicate variance instead of the pooled one
+/// (counts per frame: the radar's clutter detections per range band).
+pub fn per_station_variance(q: &str) -> bool {
+    q == quantity::CLUTTER_COUNT
 }
 
 fn hash2(a: u64, b: u64) -> u64 {
@@ -141,7 +148,22 @@ pub fn aggregate(rows: &[Row], q: &str, campaign: &Campaign) -> (Vec<Obs>, Noise
             _ => 0.0,
         };
         gt2 += gt * gt;
-        let sigma = (pooled_sd * pooled_sd / nf + gt * gt).sqrt().max(floor);
+        // Counts per frame and range band (radar clutter) are far from homoscedastic: a band of
+        // 25 clutter detections scatters by ±5 per frame, an empty one by 0. Each station keeps its
+        // own replicate variance, at least that of one count in its n frames (1/n: a band empty in
+        // every frame is still compatible with a mean of ~1/n).
+        let scatter2 = if per_station_variance(q) && n > 1 {
+            let m = r;
+            let s2 = list
+                .iter()
+                .map(|row| (row.resid() - m).powi(2))
+                .sum::<f64>()
+                / (nf - 1.0);
+            s2.max(1.0 / nf)
+        } else {
+            pooled_sd * pooled_sd
+        };
+        let sigma = (scatter2 / nf + gt * gt).sqrt().max(floor);
         let target = list[0].target;
         let mut group = 0u64;
         for g in &campaign.split.cv_group_by {
@@ -668,6 +690,8 @@ pub struct EffectResult {
     pub explained_share: f64,
     /// max |s − mean s| over the design, in the quantity's unit.
     pub max_contribution: f64,
+    /// The fitted parameters: for an accepted effect those of the final joint fit of every
+    /// accepted effect of the quantity, else those of the step it was last evaluated at.
     pub params: Vec<ParamEstimate>,
     pub tie_group: Option<String>,
     pub gates: Gates,
@@ -1061,6 +1085,26 @@ pub fn attribute_quantity(
         cur_k += cands[*wi].params().len();
         cur_fit = wfit.clone();
         cv_current = cv_winner;
+    }
+    // Every accepted effect's parameters as the final joint fit has them: one accepted at an earlier
+    // step was refitted together with each later one (a yaw fitted alone over a campaign whose
+    // radar calibrates itself halfway is a fraction of the yaw it has beside the calibration).
+    if current.len() > 1 {
+        let dof = n.saturating_sub(cur_k).max(1) as f64;
+        let infl = (cur_fit.chi2 / dof).max(1.0);
+        for (j, ci) in current.iter().enumerate() {
+            let order: Vec<usize> = (0..current.len()).filter(|&i| i != j).chain([j]).collect();
+            let effs: Vec<&dyn EffectSignature> =
+                order.iter().map(|&i| cands[current[i]]).collect();
+            let fit = Fit {
+                params: order.iter().map(|&i| cur_fit.params[i].clone()).collect(),
+                chi2: cur_fit.chi2,
+                offset: cur_fit.offset,
+            };
+            if let Some(r) = results.get_mut(ci) {
+                r.params = profile(&d, &w, &effs, &fit, infl);
+            }
+        }
     }
     // Pre-fit signature ties not involving an accepted or already grouped effect are reported too
     // (design remarks: these effects could not be told apart here if they were needed).

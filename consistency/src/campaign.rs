@@ -295,10 +295,17 @@ impl SensorMeta {
 
 impl Campaign {
     /// Whether the campaign has a property a catalogue entry `requires`: `"fmcw"` (an FMCW LiDAR,
-    /// `sensor.lidar_preset = "fmcw"`), `"fog"` (a finite `environment.fog_visibility_m`).
+    /// `sensor.lidar_preset = "fmcw"`), `"fog"` (a finite `environment.fog_visibility_m`), `"rcs"`
+    /// (a radar whose power quantity is an RCS estimate in dBsm: `quantity_semantics` names `rcs`,
+    /// or not `snr`, as the pairing reads it).
     pub fn has(&self, property: &str) -> bool {
         match property {
             "fmcw" => self.sensor.is_fmcw(),
+            "rcs" => {
+                let sem = &self.sensor.quantity_semantics;
+                self.sensor.kind == CampaignSensor::Radar
+                    && (sem.contains_key("rcs") || !sem.contains_key("snr"))
+            }
             "fog" => self.environment.fog_visibility_m.is_finite(),
             _ => false,
         }
@@ -391,7 +398,8 @@ pub struct AssociationMeta {
 
 /// `[tolerance]`: per-quantity tolerances in natural units. Keys: `range_m`, `radial_velocity_kmh`,
 /// `azimuth_deg`, `power_db` (DIVP), and for LiDAR `intensity_pct`, `intensity_db`,
-/// `points_on_target_pct`, `gap_points` (osiris defaults, guessed: see [`Tolerances::default`]).
+/// `points_on_target_pct`, `gap_points`, for radar `clutter_count` (osiris defaults, guessed: see
+/// [`Tolerances::default`]).
 #[derive(Debug, Clone, Copy, serde::Serialize)]
 pub struct Tolerances {
     pub range_m: f64,
@@ -404,6 +412,8 @@ pub struct Tolerances {
     pub intensity_db: f64,
     pub points_on_target_pct: f64,
     pub gap_points: f64,
+    /// Radar clutter detections per 2 m range band and frame (osiris default 1, guessed).
+    pub clutter_count: f64,
     /// Camera ROI mean, % of the simulated signal above black (osiris default 5 %, guessed).
     pub roi_mean_pct: f64,
     /// Camera ROI variance, % of the simulated variance (osiris default 20 %, guessed).
@@ -416,7 +426,7 @@ pub struct Tolerances {
 impl Default for Tolerances {
     /// DIVP FY2019 radar tolerances (validation.md §2); LiDAR values are osiris guesses: intensity
     /// ±10 % / ±3 dB, points on target ±20 % (Haider et al. 2022 reached 8.5 % MAPE), 1 gap point
-    /// per frame.
+    /// per frame; radar clutter 1 detection per 2 m range band and frame.
     fn default() -> Self {
         Tolerances {
             range_m: 0.30,
@@ -428,6 +438,7 @@ impl Default for Tolerances {
             intensity_db: 3.0,
             points_on_target_pct: 20.0,
             gap_points: 1.0,
+            clutter_count: 1.0,
             roi_mean_pct: 5.0,
             roi_variance_pct: 20.0,
             roi_mean_dn: f64::INFINITY,
@@ -706,6 +717,7 @@ impl Campaign {
             intensity_db: t.f64_or("intensity_db", d.intensity_db)?,
             points_on_target_pct: t.f64_or("points_on_target_pct", d.points_on_target_pct)?,
             gap_points: t.f64_or("gap_points", d.gap_points)?,
+            clutter_count: t.f64_or("clutter_count", d.clutter_count)?,
             roi_mean_pct: t.f64_or("roi_mean_pct", d.roi_mean_pct)?,
             roi_variance_pct: t.f64_or("roi_variance_pct", d.roi_variance_pct)?,
             roi_mean_dn: t.f64_or("roi_mean_dn", d.roi_mean_dn)?,
@@ -721,6 +733,7 @@ impl Campaign {
             ("intensity_db", tolerance.intensity_db),
             ("points_on_target_pct", tolerance.points_on_target_pct),
             ("gap_points", tolerance.gap_points),
+            ("clutter_count", tolerance.clutter_count),
             ("roi_mean_pct", tolerance.roi_mean_pct),
             ("roi_variance_pct", tolerance.roi_variance_pct),
         ] {

@@ -136,8 +136,8 @@ pub trait EffectSignature: Send + Sync {
         (self.kind() == EffectKind::Model).then(|| self.id())
     }
     /// Campaign properties the effect needs to be a candidate (`"fmcw"`: an FMCW LiDAR campaign,
-    /// `sensor.lidar_preset = "fmcw"`; `"fog"`: a finite fog visibility); empty: every campaign of
-    /// the sensor.
+    /// `sensor.lidar_preset = "fmcw"`; `"fog"`: a finite fog visibility; `"rcs"`: a radar campaign
+    /// whose power quantity is an RCS estimate); empty: every campaign of the sensor.
     fn requires(&self) -> &[String] {
         &[]
     }
@@ -174,10 +174,10 @@ pub fn validate(e: &dyn EffectSignature) -> Result<()> {
     if let Some(r) = e
         .requires()
         .iter()
-        .find(|r| !["fmcw", "fog"].contains(&r.as_str()))
+        .find(|r| !["fmcw", "fog", "rcs"].contains(&r.as_str()))
     {
         bail!(
-            "catalogue effect `{id}`: `requires` = `{r}`: the campaign properties are [\"fmcw\", \"fog\"]"
+            "catalogue effect `{id}`: `requires` = `{r}`: the campaign properties are [\"fmcw\", \"fog\", \"rcs\"]"
         );
     }
     for p in e.params() {
@@ -728,6 +728,111 @@ mod tests {
                 "d {d} ht {ht}: {got} vs {want_db}"
             );
         }
+    }
+
+    /// Standard normal pairs from SplitMix64 (Box–Muller), for the Monte-Carlo checks below.
+    fn normals(seed: u64, n: usize) -> Vec<(f64, f64)> {
+        let mut state = seed;
+        let mut uniform = || {
+            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..n)
+            .map(|_| {
+                let (u, v) = (uniform().max(1e-300), uniform());
+                let r = (-2.0 * u.ln()).sqrt();
+                let a = 2.0 * std::f64::consts::PI * v;
+                (r * a.cos(), r * a.sin())
+            })
+            .collect()
+    }
+
+    #[test]
+    fn diffuse_scattering_signature_is_the_mean_log_of_a_rician_power() {
+        // Independent: the mean over many frames of 10·log10|√σ_c + √σ_d·z|², z circular complex
+        // Gaussian of unit power, less 10·log10 σ_c, for a flat metal face (|Γ|² = 1) of area A at
+        // incidence θ with σ_d = 4(1 − e^{−(2kσ_h cos θ)²})·A·cos²θ.
+        let c = Catalogue::builtin(CampaignSensor::Radar).unwrap();
+        let e = c.get_for("radar.diffuse_scattering", "power_db").unwrap();
+        assert_eq!(e.requires(), ["rcs"]);
+        let lambda = 299_792_458.0 / 77e9;
+        let k = 2.0 * std::f64::consts::PI / lambda;
+        let (area, sigma_h_mm) = (0.16, 0.3);
+        let z = normals(19, 200_000);
+        for (aspect, sigma_c_dbsm) in [(0.0, 20.0), (10.0, -3.0), (30.0, -14.0), (50.0, -30.0)] {
+            let th = f64::to_radians(aspect);
+            let rho = 1.0 - (-(2.0 * k * sigma_h_mm * 1e-3 * th.cos()).powi(2)).exp();
+            let sigma_d = 4.0 * rho * area * th.cos().powi(2);
+            let sigma_c = 10f64.powf(sigma_c_dbsm / 10.0);
+            let mean_db = z
+                .iter()
+                .map(|(x, y)| {
+                    let re = sigma_c.sqrt() + (sigma_d / 2.0).sqrt() * x;
+                    let im = (sigma_d / 2.0).sqrt() * y;
+                    10.0 * (re * re + im * im).log10()
+                })
+                .sum::<f64>()
+                / z.len() as f64;
+            let want = mean_db - sigma_c_dbsm;
+            let mut x = [0.0; super::super::NVARS];
+            x[super::super::V_SIM] = sigma_c_dbsm;
+            x[super::super::V_AREA] = area;
+            x[super::super::V_ASPECT] = aspect;
+            x[super::super::V_WAVELENGTH] = lambda;
+            let got = e.eval(&x, &[1.0, sigma_h_mm]);
+            // The Monte-Carlo mean's standard error is ≤ 5.6 dB/√(2·10⁵) = 0.013 dB.
+            assert!(
+                (got - want).abs() < 0.05,
+                "aspect {aspect}°: signature {got:.3} dB, Monte Carlo {want:.3} dB"
+            );
+        }
+    }
+
+    #[test]
+    fn road_clutter_signature_is_the_exceedance_count_of_constant_gamma_cells() {
+        // Independent: n Rayleigh cells (exponential power of mean S̄) of a band exceed the threshold
+        // T with probability exp(−T/S̄), S̄(R) = K·γ·sin ψ·(R·ΔR·Δφ)·G²/R⁴, sin ψ = h/R, G² the
+        // two-way Gaussian elevation pattern exp(−8 ln2·ψ²/θ²) at the road's depression ψ.
+        let c = Catalogue::builtin(CampaignSensor::Radar).unwrap();
+        let e = c.get_for("radar.road_clutter", "clutter_count").unwrap();
+        let (h, bw_deg, t, n) = (0.5, 12.0, 20.0, 40.0);
+        let k_gamma = 3.0e4; // K·γ·ΔR·Δφ, arbitrary units
+        let mean = |r: f64| {
+            let psi = (h / r).asin();
+            let g2 = (-8.0 * 2f64.ln() * (psi.to_degrees() / bw_deg).powi(2)).exp();
+            k_gamma * (h / r) * r * g2 / r.powi(4)
+        };
+        let p1 = 10.0 * (t / mean(10.0)).log10();
+        for r in [3.0, 5.0, 9.0, 13.0, 21.0] {
+            let want = n * (-t / mean(r)).exp();
+            let mut x = [0.0; super::super::NVARS];
+            x[super::super::V_RANGE] = r;
+            x[super::super::V_CLUTTER_DB] = crate::pairing::clutter_db(r, h, Some(bw_deg));
+            let got = e.eval(&x, &[n, p1]);
+            assert!(
+                (got - want).abs() < 1e-9 * n.max(1.0),
+                "{r} m: {got} vs {want}"
+            );
+        }
+    }
+
+    #[test]
+    fn mounting_misalignment_signature_is_the_calibrations_correction() {
+        // Standing (no Doppler information): nothing; after the first usable cycle the full yaw
+        // (p1 = 0, osiris's estimator); with a prior weight p1 half of it at W = p1.
+        let c = Catalogue::builtin(CampaignSensor::Radar).unwrap();
+        let e = c
+            .get_for("radar.mounting_misalignment", "azimuth_deg")
+            .unwrap();
+        assert_eq!(e.confusable_with(), ["radar.extrinsic_error"]);
+        let mut x = [0.0; super::super::NVARS];
+        assert_eq!(e.eval(&x, &[0.8, 0.0]), 0.0);
+        x[super::super::V_CAL_W] = 25.0;
+        assert!((e.eval(&x, &[0.8, 0.0]) - 0.8).abs() < 1e-12);
+        assert!((e.eval(&x, &[0.8, 25.0]) - 0.4).abs() < 1e-12);
     }
 
     #[test]

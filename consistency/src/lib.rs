@@ -64,9 +64,11 @@ pub const VAR_NAMES: [&str; NVARS] = [
     "elev_img",  // deg, elevation of the road image, atan(−(h_t + h_s)/r_h)
     "range_rate", // m/s, ground truth: rate of the sensor → target-centre range (positive receding)
     "azimuth_rate", // deg/s, ground truth: rate of the target centre's azimuth in the sensor frame
+    "cal_w", // (m/s)²/rad², radar: Doppler information on the azimuth misalignment so far (physics.md §7.4)
+    "clutter_db", // dB, radar clutter rows: constant-γ road clutter power of the band vs 10 m (physics.md §1.10)
 ];
 /// Number of explanatory variables.
-pub const NVARS: usize = 23;
+pub const NVARS: usize = 25;
 /// Index of `prx`.
 pub const V_PRX: usize = 12;
 /// Index of `range` in [`VAR_NAMES`].
@@ -112,6 +114,10 @@ pub const V_ELEV_IMG: usize = 20;
 pub const V_RANGE_RATE: usize = 21;
 /// Index of `azimuth_rate`.
 pub const V_AZIMUTH_RATE: usize = 22;
+/// Index of `cal_w`.
+pub const V_CAL_W: usize = 23;
+/// Index of `clutter_db`.
+pub const V_CLUTTER_DB: usize = 24;
 
 /// The two-ray geometry over the road of a target whose phase centre is `pc_h` above the road at
 /// slant range `range_m` from a sensor `mount_h` above it: (path difference via the road's image,
@@ -159,6 +165,10 @@ pub mod quantity {
     pub const RANGE_SD_M: &str = "range_sd_m";
     /// LiDAR points in depth gaps (no target id) per frame, count.
     pub const GAP_POINTS: &str = "gap_points";
+    /// Radar detections of no ground-truth object (outside every target's gate, no ground-truth
+    /// id) with the Doppler of a stationary point, per frame and 2 m range band, count, meas − sim
+    /// (road clutter; no offset is fitted). See `pairing.rs`, `clutter_rows`.
+    pub const CLUTTER_COUNT: &str = "clutter_count";
     /// Camera ROI mean, meas − sim, DN (attribution; a black-level offset is fitted). Rows carry
     /// their standard error in `x[V_PRX]` ([`super::carries_row_sigma`]); see `camera.rs`.
     pub const CAMERA_MEAN_DN: &str = "roi_mean_dn";
@@ -218,6 +228,7 @@ pub fn tolerance_of(q: &str, t: &campaign::Tolerances) -> f64 {
         quantity::POINTS_ON_TARGET_PCT => t.points_on_target_pct,
         quantity::POINTS_LOG_RATIO => (1.0 + t.points_on_target_pct / 100.0).ln(),
         quantity::GAP_POINTS => t.gap_points,
+        quantity::CLUTTER_COUNT => t.clutter_count,
         quantity::CAMERA_MEAN_DN => t.roi_mean_dn,
         quantity::CAMERA_MEAN_PCT => t.roi_mean_pct,
         quantity::CAMERA_VARIANCE_PCT | quantity::CAMERA_VARIANCE_ROI_PCT => t.roi_variance_pct,
@@ -233,6 +244,7 @@ pub fn attribution_quantities(kind: campaign::CampaignSensor) -> &'static [&'sta
             quantity::RANGE_M,
             quantity::AZIMUTH_DEG,
             quantity::RADIAL_VELOCITY_KMH,
+            quantity::CLUTTER_COUNT,
         ],
         campaign::CampaignSensor::Lidar => &[
             quantity::INTENSITY_DB,
@@ -261,6 +273,7 @@ pub fn metric_quantities(kind: campaign::CampaignSensor) -> &'static [&'static s
             quantity::RADIAL_VELOCITY_KMH,
             quantity::AZIMUTH_DEG,
             quantity::POWER_DB,
+            quantity::CLUTTER_COUNT,
         ],
         campaign::CampaignSensor::Lidar => &[
             quantity::RANGE_M,

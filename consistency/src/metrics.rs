@@ -184,6 +184,7 @@ pub fn unit_of(q: &str) -> &'static str {
         | super::quantity::INTENSITY_SD_DB => "dB",
         super::quantity::INTENSITY_PCT | super::quantity::POINTS_ON_TARGET_PCT => "%",
         super::quantity::GAP_POINTS => "points/frame",
+        super::quantity::CLUTTER_COUNT => "detections/band/frame",
         super::quantity::POINTS_LOG_RATIO => "ln ratio",
         _ => "",
     }

@@ -139,6 +139,8 @@ pub struct TargetGeometry {
     pub range_rate_m_s: f64,
     /// Rate of the target centre's azimuth in the (rotating) sensor frame, deg/s.
     pub azimuth_rate_deg_s: f64,
+    /// The target stands still in the world (OSI velocity zero or a stationary object).
+    pub stationary: bool,
 }
 
 struct FrameGeom {
@@ -146,6 +148,9 @@ struct FrameGeom {
     targets: Vec<TargetGeometry>,
     /// Height of the sensor above the road below it, m.
     sensor_height_m: f64,
+    /// Radar: the Doppler information on the azimuth misalignment gathered up to and including
+    /// this frame, (m/s)²/rad² ([`calibration_information`]; 0 for other sensors).
+    cal_w: f64,
 }
 
 /// The road surface of a SensorView's ground truth, as the models' scene builds it
@@ -299,6 +304,7 @@ fn frame_geometry(campaign: &Campaign, view: &osi3::SensorView) -> Result<FrameG
             },
             range_rate_m_s: sensor.range_rate(pose.position, velocity),
             azimuth_rate_deg_s: azimuth_rate.to_degrees(),
+            stationary: velocity.length() < STATIONARY_M_S,
         });
     }
     let sensor_height_m = s_pos.z - road.z_below(s_pos);
@@ -306,7 +312,75 @@ fn frame_geometry(campaign: &Campaign, view: &osi3::SensorView) -> Result<FrameG
         sensor,
         targets,
         sensor_height_m,
+        cal_w: 0.0,
     })
+}
+
+/// A target moving slower than this counts as stationary, m/s.
+const STATIONARY_M_S: f64 = 0.05;
+
+/// The Doppler information on a radar's azimuth misalignment that one frame offers
+/// (physics.md §7.3, §7.4): over the campaign's stationary targets at least
+/// `MIN_AZIMUTH_RAD` off boresight, Σ g², g = ∂ṙ/∂δ = cos φ·(v_y cos θ − v_x sin θ) (m/s per rad) with
+/// v the sensor's velocity in its own axes; 0 when the frame fails the online calibration's gates
+/// (sensor slower than `MIN_SPEED_M_S`, fewer than `MIN_DETECTIONS` targets, Σ g² below
+/// `MIN_WEIGHT`: the constants of `osiris_models::radar::calibration`, taken as the ground truth's
+/// stationary targets all detected).
+fn frame_information(geom: &FrameGeom) -> f64 {
+    use osiris_models::radar::calibration::{
+        MIN_AZIMUTH_RAD, MIN_DETECTIONS, MIN_SPEED_M_S, MIN_WEIGHT,
+    };
+    let v = geom.sensor.vector_to_sensor(geom.sensor.velocity);
+    if !(v.is_finite() && v.truncate().length() >= MIN_SPEED_M_S) {
+        return 0.0;
+    }
+    let (mut w, mut n) = (0.0, 0usize);
+    for g in geom.targets.iter().filter(|g| g.stationary) {
+        let (th, ph) = (g.azimuth_deg.to_radians(), g.elevation_deg.to_radians());
+        if th.abs() < MIN_AZIMUTH_RAD {
+            continue;
+        }
+        let d = ph.cos() * (v.y * th.cos() - v.x * th.sin());
+        w += d * d;
+        n += 1;
+    }
+    if n < MIN_DETECTIONS || w < MIN_WEIGHT {
+        0.0
+    } else {
+        w
+    }
+}
+
+/// Radar: per SensorView (index into `views`), the Doppler information on the azimuth
+/// misalignment gathered from the first view up to and including it ([`frame_information`]
+/// summed in time order): what a radar's online calibration (physics.md §7.3) could have used by
+/// then. Every view counts, also those whose measured frame is missing (the radar ran that cycle).
+fn calibration_information(
+    campaign: &Campaign,
+    views: &[osi3::SensorView],
+    view_idx: &[(i128, usize)],
+) -> Result<Vec<f64>> {
+    let mut out = vec![0.0; views.len()];
+    let mut sum = 0.0;
+    for &(_, vi) in view_idx {
+        sum += frame_information(&frame_geometry(campaign, &views[vi])?);
+        out[vi] = sum;
+    }
+    Ok(out)
+}
+
+/// The angle between a target's facing axis (+x) and the direction to the sensor, both projected
+/// on the horizontal plane, deg.
+fn horizontal_aspect_deg(geom: &FrameGeom, g: &TargetGeometry) -> f64 {
+    let facing = g
+        .pose
+        .transform_vector(DVec3::X)
+        .truncate()
+        .normalize_or_zero();
+    let to_sensor = (geom.sensor.pose.position - g.pose.position)
+        .truncate()
+        .normalize_or_zero();
+    facing.dot(to_sensor).clamp(-1.0, 1.0).acos().to_degrees()
 }
 
 fn station_key(target: u64, a: f64, b: f64) -> u64 {
@@ -348,6 +422,8 @@ fn vars(campaign: &Campaign, geom: &FrameGeom, g: &TargetGeometry) -> [f64; NVAR
         el_img,
         g.range_rate_m_s,
         g.azimuth_rate_deg_s,
+        geom.cal_w,
+        0.0,
     ]
 }
 
@@ -435,6 +511,11 @@ pub fn pair(
         bail!("the measured SensorData trace has no frame with a timestamp");
     }
     let osi_id = campaign.sensor.osi_sensor_id;
+    let cal_w = if campaign.sensor.kind == CampaignSensor::Radar {
+        calibration_information(campaign, views, &view_idx)?
+    } else {
+        Vec::new()
+    };
     let mut frame = 0usize;
     for &(t, mi) in &meas_idx {
         let md = &meas[mi];
@@ -455,7 +536,8 @@ pub fn pair(
             out.missing_sim_frames += 1;
             continue;
         };
-        let geom = frame_geometry(campaign, &views[vi])?;
+        let mut geom = frame_geometry(campaign, &views[vi])?;
+        geom.cal_w = cal_w.get(vi).copied().unwrap_or(0.0);
         let time_s = t as f64 * 1e-9;
         let known = sim_truth.and_then(|t| t.get(si)).map(Vec::as_slice);
         let sd = (&sim[si], known);
@@ -567,7 +649,14 @@ fn radar_frame(
             continue;
         };
         let x = vars(campaign, geom, g);
-        let station = station_key(g.id, g.range_m, g.azimuth_deg);
+        // A station is the target at one geometry: range, azimuth and (2° steps) the aspect it
+        // shows the sensor in the horizontal plane (a board turned 4° or 40° at one place is two
+        // stations; the elevation of a near target does not split its frames).
+        let station = station_key(
+            g.id ^ (((horizontal_aspect_deg(geom, g) / 2.0).round() as u64) << 48),
+            g.range_m,
+            g.azimuth_deg,
+        );
         let mut push = |q: &'static str, meas: Option<f64>, sim: Option<f64>| {
             if let (Some(mv), Some(sv)) = (meas, sim)
                 && mv.is_finite()
@@ -611,6 +700,118 @@ fn radar_frame(
     }
     out.counts.meas_unassociated += m_used.iter().filter(|u| !**u).count();
     out.counts.sim_unassociated += s_used.iter().filter(|u| !**u).count();
+    clutter_rows(
+        campaign,
+        geom,
+        [(&m, &m_truth), (&s, &s_truth)],
+        frame,
+        time_s,
+        out,
+    );
+}
+
+/// Width of the range bands of the radar clutter rows, m.
+pub const CLUTTER_BAND_M: f64 = 2.0;
+/// The clutter rows' bands reach this slant range, m (constant-γ road clutter falls as R⁻⁴: a road
+/// whose mean clutter is at the threshold at 15 m is 26 dB below it here).
+pub const CLUTTER_MAX_RANGE_M: f64 = 60.0;
+/// A clutter detection's radial velocity is within this of a stationary point's, m/s.
+pub const CLUTTER_DOPPLER_GATE_M_S: f64 = 0.5;
+
+/// The stationary clutter detections of one frame per range band: detections without a ground-truth
+/// id, outside every target's association gate (2 m + 5 % in range, 3° in azimuth) and with the
+/// radial velocity of a stationary point in their direction (OSI sign: v_s·u towards the sensor,
+/// v_s the sensor's velocity in its axes; detections without a radial velocity count).
+fn clutter_counts(
+    geom: &FrameGeom,
+    dets: &[osi3::RadarDetection],
+    truth: &[Option<u64>],
+) -> Vec<usize> {
+    let bands = (CLUTTER_MAX_RANGE_M / CLUTTER_BAND_M).round() as usize;
+    let mut counts = vec![0usize; bands];
+    let v = geom.sensor.vector_to_sensor(geom.sensor.velocity);
+    for (d, t) in dets.iter().zip(truth) {
+        let Some(p) = d.position.filter(|_| t.is_none()) else {
+            continue;
+        };
+        let Some(r) = p.distance.filter(|r| r.is_finite() && *r >= 0.0) else {
+            continue;
+        };
+        let (az, el) = (p.azimuth.unwrap_or(0.0), p.elevation.unwrap_or(0.0));
+        let Some(band) = Some((r / CLUTTER_BAND_M) as usize).filter(|b| *b < bands) else {
+            continue;
+        };
+        let near_target = geom.targets.iter().any(|g| {
+            let dr = (r - g.range_m) / (2.0 + 0.05 * g.range_m);
+            let da = (az.to_degrees() - g.azimuth_deg) / 3.0;
+            dr * dr + da * da <= 1.0
+        });
+        let u = DVec3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
+        let moving = d
+            .radial_velocity
+            .is_some_and(|rv| (rv - v.dot(u)).abs() > CLUTTER_DOPPLER_GATE_M_S);
+        if !near_target && !moving {
+            counts[band] += 1;
+        }
+    }
+    counts
+}
+
+/// The clutter shape of a band: the constant-γ mean road-clutter power (physics.md §1.10) at slant
+/// range `r` from a sensor `h` above a flat road, relative to that at 10 m, dB:
+/// 10·log10[(sin ψ/sin ψ₁₀)·(r/10)·(10/r)⁴] − 24.08·(ψ² − ψ₁₀²)/θ_el², ψ = asin(h/r) the grazing
+/// angle (and the road's depression below a horizontal boresight), θ_el the campaign's elevation
+/// 3 dB beamwidth (two-way Gaussian beam; no pattern term without one).
+pub fn clutter_db(r: f64, h: f64, el_beamwidth_deg: Option<f64>) -> f64 {
+    let psi = |r: f64| (h / r.max(h + 1e-3)).clamp(0.0, 1.0).asin().to_degrees();
+    let (p, p10) = (psi(r), psi(10.0));
+    let pattern = el_beamwidth_deg.filter(|b| *b > 0.0).map_or(0.0, |b| {
+        // Two-way Gaussian power pattern exp(−8 ln2·ψ²/θ²) in dB: −24.08·ψ²/θ².
+        -80.0 * std::f64::consts::LN_2 / std::f64::consts::LN_10 * (p * p - p10 * p10) / (b * b)
+    });
+    10.0 * (p.to_radians().sin() / p10.to_radians().sin()).log10() - 30.0 * (r / 10.0).log10()
+        + pattern
+}
+
+/// The clutter rows of one radar frame: per range band of [`CLUTTER_BAND_M`] out to
+/// [`CLUTTER_MAX_RANGE_M`], the measured and the simulated stationary clutter detections
+/// ([`clutter_counts`]); `range` the band's centre, `clutter_db` its clutter shape.
+fn clutter_rows(
+    campaign: &Campaign,
+    geom: &FrameGeom,
+    [(m, m_truth), (s, s_truth)]: [(&[osi3::RadarDetection], &[Option<u64>]); 2],
+    frame: usize,
+    time_s: f64,
+    out: &mut Paired,
+) {
+    let (mc, sc) = (
+        clutter_counts(geom, m, m_truth),
+        clutter_counts(geom, s, s_truth),
+    );
+    let h = geom.sensor_height_m;
+    let fog = campaign.environment.fog_visibility_m;
+    for (b, (&mv, &sv)) in mc.iter().zip(&sc).enumerate() {
+        let r = (b as f64 + 0.5) * CLUTTER_BAND_M;
+        let mut x = [0.0; NVARS];
+        x[super::V_RANGE] = r;
+        x[super::V_SIM] = sv as f64;
+        x[10] = campaign.environment.rain_mm_h;
+        x[11] = if fog.is_finite() { fog } else { 1e9 };
+        x[super::V_MOUNT_H] = h;
+        x[super::V_WAVELENGTH] = campaign.sensor.wavelength_m();
+        x[super::V_CAL_W] = geom.cal_w;
+        x[super::V_CLUTTER_DB] = clutter_db(r, h, campaign.sensor.antenna_beamwidth_el_deg);
+        out.rows.push(Row {
+            quantity: quantity::CLUTTER_COUNT,
+            frame,
+            time_s,
+            target: 0,
+            station: station_key(0, r, h),
+            meas: mv as f64,
+            sim: sv as f64,
+            x,
+        });
+    }
 }
 
 /// The unused detection of the lowest `cost` (`None`: not a candidate), restricted to those whose

@@ -176,7 +176,7 @@ fn mounting(h: f64) -> osi3::MountingPosition {
     }
 }
 
-fn host_object() -> osi3::MovingObject {
+fn host_object(velocity: DVec3) -> osi3::MovingObject {
     osi3::MovingObject {
         id: ident(HOST_ID),
         base: Some(osi3::BaseMoving {
@@ -187,7 +187,7 @@ fn host_object() -> osi3::MovingObject {
             }),
             position: v3(DVec3::new(-HOST_LEN / 2.0, 0.0, HOST_H / 2.0)),
             orientation: yaw_only(0.0),
-            velocity: v3(DVec3::ZERO),
+            velocity: v3(velocity),
             ..Default::default()
         }),
         r#type: Some(2), // TYPE_VEHICLE
@@ -207,6 +207,17 @@ struct LoggedBox {
 }
 
 fn sensor_view(frame: u64, h_sensor: f64, boxes: &[LoggedBox]) -> osi3::SensorView {
+    sensor_view_moving(frame, h_sensor, boxes, DVec3::ZERO)
+}
+
+/// [`sensor_view`] of a host driving at `host_velocity` (global, m/s; the snapshot keeps the host
+/// at the origin: each frame is a station of its own, as the targets of the clock-offset case).
+fn sensor_view_moving(
+    frame: u64,
+    h_sensor: f64,
+    boxes: &[LoggedBox],
+    host_velocity: DVec3,
+) -> osi3::SensorView {
     let t = frame * FRAME_DT_NS;
     let moving = boxes
         .iter()
@@ -255,7 +266,9 @@ fn sensor_view(frame: u64, h_sensor: f64, boxes: &[LoggedBox]) -> osi3::SensorVi
         global_ground_truth: Some(osi3::GroundTruth {
             timestamp: stamp(t),
             host_vehicle_id: ident(HOST_ID),
-            moving_object: std::iter::once(host_object()).chain(moving).collect(),
+            moving_object: std::iter::once(host_object(host_velocity))
+                .chain(moving)
+                .collect(),
             stationary_object: stationary,
             ..Default::default()
         }),
@@ -922,19 +935,67 @@ pub fn radar_campaign_surveyed(
     write_trace(&dir.join("meas.osi"), &meas)?;
     write_trace(&dir.join("model.osi"), &sims)?;
 
-    let mut toml = String::new();
-    let semantics = if design.snr_semantics {
+    let toml = radar_toml(
+        &format!("independent-radar-{}-{seed}", case.name()),
+        &format!(
+            "independent truth generator (tests/support/independent_truth.rs): trihedrals, hidden case `{}`",
+            case.name()
+        ),
+        power_semantics(design.snr_semantics),
+        design.rain_mm_h,
+        if design.asphalt {
+            "asphalt"
+        } else {
+            "absorber mats (no ground reflection)"
+        },
+        pos_sigma,
+        &trihedral_targets_toml(&targets),
+    );
+    let meta = dir.join("consistency.toml");
+    std::fs::write(&meta, toml)?;
+    Ok(Written {
+        meta,
+        model_trace: dir.join("model.osi"),
+        hidden: case.name().into(),
+        hidden_value: match case {
+            RadarCase::YawMisalignment => Some(yaw_true.to_degrees()),
+            RadarCase::TimeOffset => Some(1e3 * clock_s),
+            _ => None,
+        },
+        frames: frame as usize,
+        dropped_frames: dropped,
+    })
+}
+
+/// The power semantics of the trihedral campaigns: the SNR, or an RCS estimate assuming the
+/// boresight gain.
+fn power_semantics(snr: bool) -> &'static str {
+    if snr {
         "snr = \"processed SNR in dB after range/Doppler FFT and beamforming; unknown calibration offset\""
     } else {
         "rcs = \"RCS estimate in dBsm: SNR range-compensated with R^4 at the measured range, boresight gain, unknown calibration offset, 0.5 dB steps\""
-    };
-    let _ = writeln!(
-        toml,
+    }
+}
+
+/// The `consistency.toml` of a radar campaign (`sv.osi`, `meas.osi` in its folder): the sensor as
+/// the generator's radar, `semantics` the `[sensor.quantity_semantics]` line, `targets` the
+/// `[[target]]` tables.
+fn radar_toml(
+    id: &str,
+    description: &str,
+    semantics: &str,
+    rain_mm_h: f64,
+    ground: &str,
+    pos_sigma: f64,
+    targets: &str,
+) -> String {
+    let h_s = RADAR_MOUNT_H;
+    format!(
         r#"schema = "osiris.consistency/1"
 
 [run]
-id = "independent-radar-{name}-{seed}"
-description = "independent truth generator (tests/support/independent_truth.rs): trihedrals, hidden case `{name}`"
+id = "{id}"
+description = "{description}"
 provenance = "synthetic"
 licence = "MPL-2.0"
 
@@ -955,7 +1016,7 @@ detection_threshold_db = {DET_THRESHOLD_DB}
 {semantics}
 
 [environment]
-rain_mm_h = {rain}
+rain_mm_h = {rain_mm_h}
 ground = "{ground}"
 
 [uncertainty]
@@ -971,35 +1032,732 @@ explanatory = ["range", "azimuth", "area"]
 [traces]
 sensor_view = "sv.osi"
 sensor_data = "meas.osi"
-"#,
-        name = case.name(),
+
+{targets}"#,
         mx = HOST_LEN / 2.0,
         mz = h_s - HOST_H / 2.0,
-        rain = design.rain_mm_h,
-        ground = if design.asphalt {
-            "asphalt"
-        } else {
-            "absorber mats (no ground reflection)"
-        },
-    );
-    for t in &targets {
-        let _ = writeln!(
-            toml,
-            "[[target]]\nid = {}\nkind = \"trihedral\"\nedge_m = {}\nmaterial = \"aluminium\"\norientation = \"facing the sensor\"\n",
-            t.id, t.edge
-        );
+    )
+}
+
+// ---------------------------------------------------------------------------------------------
+// Radar: online calibration, road clutter, diffuse scattering (issue 19).
+
+/// Writes the three traces of a radar campaign into `dir`.
+fn write_radar_traces(
+    dir: &Path,
+    views: &[osi3::SensorView],
+    meas: &[osi3::SensorData],
+    sims: &[osi3::SensorData],
+) -> anyhow::Result<()> {
+    write_trace(&dir.join("sv.osi"), views)?;
+    write_trace(&dir.join("meas.osi"), meas)?;
+    write_trace(&dir.join("model.osi"), sims)
+}
+
+/// The `[[target]]` tables of trihedrals.
+fn trihedral_targets_toml(targets: &[Trihedral]) -> String {
+    targets
+        .iter()
+        .map(|t| {
+            format!(
+                "[[target]]\nid = {}\nkind = \"trihedral\"\nedge_m = {}\nmaterial = \"aluminium\"\norientation = \"facing the sensor\"\n\n",
+                t.id, t.edge
+            )
+        })
+        .collect()
+}
+
+/// Three trihedrals (edges 10, 12, 15 cm, apexes 0.6 m up), their surveyed tops off by up to
+/// `height_error`.
+fn three_trihedrals(rng: &mut Rng, height_error: f64) -> Vec<Trihedral> {
+    [0.10, 0.12, 0.15]
+        .iter()
+        .enumerate()
+        .map(|(i, &edge)| {
+            let top = 0.6 + 2.0 * edge / 6f64.sqrt();
+            Trihedral {
+                id: 100 + i as u64,
+                edge,
+                top_logged: top,
+                top_true: top + rng.range(-height_error, height_error),
+            }
+        })
+        .collect()
+}
+
+/// A detection at `rel` (sensor → scatterer in the radar's own axes) with the noise of the
+/// generator's radar: range 4 cm, azimuth 0.2°, elevation 0.5°, radial velocity `rv_sigma`.
+fn noisy_detection(
+    rng: &mut Rng,
+    rel: DVec3,
+    radial_velocity: f64,
+    rv_sigma: f64,
+    rcs: f64,
+) -> osi3::RadarDetection {
+    let r = rel.length();
+    osi3::RadarDetection {
+        position: Some(osi3::Spherical3d {
+            distance: Some(r + 0.04 * rng.normal()),
+            azimuth: Some(rel.y.atan2(rel.x) + 0.2f64.to_radians() * rng.normal()),
+            elevation: Some((rel.z / r).asin() + 0.5f64.to_radians() * rng.normal()),
+        }),
+        radial_velocity: Some(radial_velocity + rv_sigma * rng.normal()),
+        rcs: Some(rcs),
+        existence_probability: Some(1.0),
+        ..Default::default()
     }
+}
+
+/// The measured power of a return of mean SNR `snr_db` (linear sum of the reflector with its
+/// −16.5 dB Rician phasor, an extra circular Gaussian term of mean SNR `diffuse_snr` (linear) and
+/// unit thermal noise), dB; and the reported RCS estimate with the calibration offset, 0.5 dB steps.
+fn measured_rcs(
+    rng: &mut Rng,
+    snr_db: f64,
+    diffuse_snr: f64,
+    range_m: f64,
+    cal_db: f64,
+) -> (f64, f64) {
+    let amp = undb(snr_db).sqrt();
+    let clutter = rng.cnormal().scale(0.15);
+    let diffuse = rng.cnormal().scale(diffuse_snr.sqrt());
+    let noise = rng.cnormal();
+    let snr_m = db(C64::new(1.0, 0.0)
+        .add(clutter)
+        .scale(amp)
+        .add(diffuse)
+        .add(noise)
+        .norm_sqr());
+    let rcs = snr_m - SNR_REF_DB + 10.0 + 40.0 * (range_m / 100.0).log10() + cal_db;
+    (snr_m, (rcs * 2.0).round() / 2.0)
+}
+
+/// Hidden-effect cases of the online-calibration campaigns: the host stands for the first 40 % of
+/// the stations, then drives at 12 m/s past the trihedrals (9–16° either side of boresight).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CalibrationCase {
+    /// The measuring radar is turned by 0.5–1° and corrects its azimuths online from the Doppler
+    /// of the stationary targets (physics.md §7.3) once the host drives; the model trace has the
+    /// same (surveyed) yaw and no online calibration.
+    SelfCalibrating,
+    /// As `SelfCalibrating`, but the model trace has the nominal mounting: a yaw error and the
+    /// online calibration together.
+    YawAndSelfCalibrating,
+    /// The measuring radar is turned by 0.5–1° and does not calibrate itself; model nominal.
+    YawOnly,
+    /// A self-calibrating radar without misalignment; model nominal: nothing hidden.
+    Null,
+}
+
+impl CalibrationCase {
+    pub const ALL: [CalibrationCase; 4] = [
+        CalibrationCase::SelfCalibrating,
+        CalibrationCase::YawAndSelfCalibrating,
+        CalibrationCase::YawOnly,
+        CalibrationCase::Null,
+    ];
+    pub fn name(self) -> &'static str {
+        match self {
+            CalibrationCase::SelfCalibrating => "self_calibrating",
+            CalibrationCase::YawAndSelfCalibrating => "yaw_and_self_calibrating",
+            CalibrationCase::YawOnly => "yaw_standing_and_driving",
+            CalibrationCase::Null => "self_calibrating_null",
+        }
+    }
+}
+
+/// Host speed of the driving part of the calibration campaigns, m/s.
+pub const CALIBRATION_SPEED_M_S: f64 = 12.0;
+/// Radial-velocity noise of the calibration campaigns' radar, m/s (GUESSED: an interpolated
+/// high-SNR peak is good to a few mm/s).
+pub const CALIBRATION_RV_SIGMA_M_S: f64 = 0.01;
+
+/// The generator's own online azimuth calibration (written from physics.md §7.3, not from the
+/// model): per cycle of a host faster than 1 m/s, over the detections at least 3° off boresight
+/// (at least two), Gauss–Newton on ṙ_towards = v·cos φ_m·cos(θ_m + δ) (OSI sign: positive
+/// towards the sensor, host driving along +x at v) from the running estimate; the cycle's δ enters
+/// a weighted mean with the weight Σ(∂ṙ/∂δ)². The cycle's own detections are corrected with the
+/// estimate that includes them. All gates GUESSED.
+#[derive(Default)]
+struct SelfCalibration {
+    sum_w: f64,
+    sum_wd: f64,
+}
+
+impl SelfCalibration {
+    fn estimate(&self) -> f64 {
+        if self.sum_w > 0.0 {
+            self.sum_wd / self.sum_w
+        } else {
+            0.0
+        }
+    }
+
+    fn update(&mut self, v: f64, dets: &[osi3::RadarDetection]) {
+        if v < 1.0 {
+            return;
+        }
+        let used: Vec<(f64, f64, f64)> = dets
+            .iter()
+            .filter_map(|d| {
+                let p = d.position?;
+                let (az, el) = (p.azimuth?, p.elevation?);
+                (az.abs() >= 3f64.to_radians()).then_some((az, el, d.radial_velocity?))
+            })
+            .collect();
+        if used.len() < 2 {
+            return;
+        }
+        let mut delta = self.estimate();
+        let mut weight = 0.0;
+        for _ in 0..4 {
+            let (mut sgr, mut sgg) = (0.0, 0.0);
+            for &(az, el, rv) in &used {
+                let r = rv - v * el.cos() * (az + delta).cos();
+                let g = -v * el.cos() * (az + delta).sin();
+                sgr += g * r;
+                sgg += g * g;
+            }
+            delta += sgr / sgg;
+            weight = sgg;
+        }
+        self.sum_w += weight;
+        self.sum_wd += weight * delta;
+    }
+}
+
+/// Writes an online-calibration campaign (ground truth: 2 cm position jitter per frame, target
+/// heights off by up to ±2 cm): three trihedrals at 9–16° either side of boresight and 8–51 m,
+/// 40 stations of 3 frames, the host standing for the first 16, then driving at 12 m/s (its
+/// velocity logged; the snapshots keep it at the origin), both parts over the whole range span;
+/// ~10 % of the measured frames missing.
+pub fn radar_calibration_campaign(
+    case: CalibrationCase,
+    seed: u64,
+    dir: &Path,
+) -> anyhow::Result<Written> {
+    std::fs::create_dir_all(dir)?;
+    let mut rng = Rng::new(seed.wrapping_mul(6151).wrapping_add(case as u64 + 40));
+    let (pos_sigma, height_error) = (0.02, 0.02);
+    let h_s = RADAR_MOUNT_H;
+    let sensor = DVec3::new(0.0, 0.0, h_s);
+    let sign = if rng.uniform() < 0.5 { -1.0 } else { 1.0 };
+    let yaw_true = if case == CalibrationCase::Null {
+        0.0
+    } else {
+        (sign * rng.range(0.5, 1.0)).to_radians()
+    };
+    let self_calibrating = case != CalibrationCase::YawOnly;
+    // The yaw the model trace is simulated with (the surveyed mounting error).
+    let yaw_model = if case == CalibrationCase::SelfCalibrating {
+        yaw_true
+    } else {
+        0.0
+    };
+    let physics = RadarPhysics {
+        spreading: 4.0,
+        area_exp: 2.0,
+        azimuth_pattern: true,
+        multipath: None,
+        rain_db_km: 0.0,
+        scalloping: false,
+    };
+    let cal_db = rng.range(-3.0, 3.0);
+    let targets = three_trihedrals(&mut rng, height_error);
+    let az: [f64; 4] = [-16.0, -9.0, 9.0, 16.0];
+    let stations = 40usize;
+    let standing = 16usize;
+    let mut calibration = SelfCalibration::default();
+    let (mut views, mut meas, mut sims) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut frame, mut dropped) = (0u64, 0usize);
+    for k in 0..stations {
+        let v = if k < standing {
+            0.0
+        } else {
+            CALIBRATION_SPEED_M_S
+        };
+        let host_v = DVec3::new(v, 0.0, 0.0);
+        // Ranges in a stride-17 order over the 40 stations, so that the standing and the driving
+        // stations each span 8–48 m (a lateral offset, ∝ 1/R, cannot pass for the phase).
+        let r0 = 8.0 + 40.0 * ((17 * k) % stations) as f64 / (stations - 1) as f64;
+        for _ in 0..3 {
+            let (mut logged, mut m_dets, mut s_dets) = (Vec::new(), Vec::new(), Vec::new());
+            for (i, t) in targets.iter().enumerate() {
+                let a = az[(i + k) % 4].to_radians();
+                let r = r0 + 1.5 * i as f64;
+                let yaw = a + PI;
+                let c_true = DVec3::new(
+                    r * a.cos(),
+                    r * a.sin(),
+                    trihedral_centre_z(t.edge, t.top_true),
+                );
+                let jitter = DVec3::new(rng.normal(), rng.normal(), rng.normal()) * pos_sigma;
+                let c_log =
+                    DVec3::new(c_true.x, c_true.y, trihedral_centre_z(t.edge, t.top_logged))
+                        + jitter;
+                logged.push(LoggedBox {
+                    id: t.id,
+                    centre: c_log,
+                    dims: trihedral_dims(t.edge),
+                    yaw,
+                    model_reference: format!("osiris:trihedral?edge_m={}&mount=none", t.edge),
+                    velocity: DVec3::ZERO,
+                });
+                // A stationary target seen from a host moving at v: OSI radial velocity (towards
+                // the sensor) v·u.
+                let towards = |rel: DVec3| rel.normalize().dot(host_v);
+                // Model: from the logged box, in the frame turned by the model's yaw.
+                let rel_log = apex_from_box(c_log, yaw, t.edge) - sensor;
+                let rel_s = glam::DMat3::from_rotation_z(-yaw_model) * rel_log;
+                let snr_s = radar_snr_db(&physics, sensor, sensor + rel_s, t.edge);
+                if snr_s >= DET_THRESHOLD_DB {
+                    let rcs = snr_s - SNR_REF_DB + 10.0 + 40.0 * (rel_s.length() / 100.0).log10();
+                    s_dets.push(osi3::RadarDetection {
+                        object_id: ident(t.id),
+                        position: spherical(rel_s),
+                        radial_velocity: Some(towards(rel_log)),
+                        rcs: Some(rcs),
+                        existence_probability: Some(1.0),
+                        ..Default::default()
+                    });
+                }
+                // Measurement: the true apex in the radar's frame turned by the true yaw; the
+                // Doppler is the host's motion along the true line of sight.
+                let rel_world = apex_from_box(c_true, yaw, t.edge) - sensor;
+                let rel_t = glam::DMat3::from_rotation_z(-yaw_true) * rel_world;
+                let snr_t = radar_snr_db(&physics, sensor, sensor + rel_t, t.edge);
+                let (snr_m, rcs) = measured_rcs(&mut rng, snr_t, 0.0, rel_t.length(), cal_db);
+                if snr_m >= DET_THRESHOLD_DB {
+                    m_dets.push(noisy_detection(
+                        &mut rng,
+                        rel_t,
+                        towards(rel_world),
+                        CALIBRATION_RV_SIGMA_M_S,
+                        rcs,
+                    ));
+                }
+            }
+            // The radar calibrates itself every cycle (also those whose log is lost).
+            if self_calibrating {
+                calibration.update(v, &m_dets);
+                let delta = calibration.estimate();
+                for d in &mut m_dets {
+                    if let Some(p) = d.position.as_mut() {
+                        p.azimuth = p.azimuth.map(|a| a + delta);
+                    }
+                }
+            }
+            views.push(sensor_view_moving(frame, h_s, &logged, host_v));
+            sims.push(sensor_data_radar(frame, h_s, s_dets));
+            if rng.uniform() < 0.10 {
+                dropped += 1;
+            } else {
+                meas.push(sensor_data_radar(frame, h_s, m_dets));
+            }
+            frame += 1;
+        }
+    }
+    write_radar_traces(dir, &views, &meas, &sims)?;
+    let toml = radar_toml(
+        &format!("independent-radar-{}-{seed}", case.name()),
+        &format!(
+            "independent truth generator (tests/support/independent_truth.rs): trihedrals, host standing then driving, hidden case `{}`",
+            case.name()
+        ),
+        power_semantics(false),
+        0.0,
+        "absorber mats (no ground reflection)",
+        pos_sigma,
+        &trihedral_targets_toml(&targets),
+    );
     let meta = dir.join("consistency.toml");
     std::fs::write(&meta, toml)?;
     Ok(Written {
         meta,
         model_trace: dir.join("model.osi"),
         hidden: case.name().into(),
-        hidden_value: match case {
-            RadarCase::YawMisalignment => Some(yaw_true.to_degrees()),
-            RadarCase::TimeOffset => Some(1e3 * clock_s),
-            _ => None,
-        },
+        hidden_value: (case != CalibrationCase::Null).then(|| yaw_true.to_degrees()),
+        frames: frame as usize,
+        dropped_frames: dropped,
+    })
+}
+
+/// Hidden-effect cases of the road-clutter campaigns (a parked radar 0.5 m over asphalt, three
+/// trihedrals at 20–60 m).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ClutterCase {
+    /// The measuring radar sees the road's constant-γ backscatter (γ = −24…−18 dB); the model
+    /// trace has no road clutter.
+    RoadClutter,
+    /// Neither has road clutter.
+    Null,
+    /// About 20 false alarms per frame spread uniformly over 0–60 m and ±40° (interference-like),
+    /// no road clutter.
+    FalseAlarms,
+}
+
+impl ClutterCase {
+    pub fn name(self) -> &'static str {
+        match self {
+            ClutterCase::RoadClutter => "road_clutter",
+            ClutterCase::Null => "clutter_null",
+            ClutterCase::FalseAlarms => "uniform_false_alarms",
+        }
+    }
+}
+
+/// Azimuth cells of the generator's radar for the road, deg: 10° wide (a 12-channel array resolves
+/// ≈ 9.5°, physics.md §1.6) across ±40° (GUESSED).
+pub const CLUTTER_CELL_DEG: f64 = 10.0;
+pub const CLUTTER_FOV_DEG: f64 = 40.0;
+
+/// The measured road-clutter detections of one frame (physics.md §1.9, written here from the
+/// closed forms): every resolution cell (range bin of c/2B = 15 cm from 1 to 60 m × azimuth cell)
+/// of a flat road at z = 0 seen from `sensor` returns σ = γ·sin ψ·R·ΔR·Δφ with sin ψ = h/R, a
+/// circular Gaussian amplitude of mean SNR S̄ from the link budget (two-way Gaussian azimuth and
+/// elevation patterns at the cell's direction), plus unit thermal noise; a cell whose power exceeds
+/// the threshold is one detection (no peak grouping, GUESSED) at the cell's centre.
+fn road_clutter_detections(
+    rng: &mut Rng,
+    sensor: DVec3,
+    gamma: f64,
+    cal_db: f64,
+) -> Vec<osi3::RadarDetection> {
+    let h = sensor.z;
+    let threshold = undb(DET_THRESHOLD_DB);
+    let dphi = CLUTTER_CELL_DEG.to_radians();
+    let n_az = (2.0 * CLUTTER_FOV_DEG / CLUTTER_CELL_DEG).round() as usize;
+    let mut out = Vec::new();
+    let mut r = 1.0 + 0.5 * RANGE_BIN_M;
+    while r < 60.0 {
+        let psi = (h / r).asin();
+        let sigma = gamma * psi.sin() * r * RANGE_BIN_M * dphi;
+        for j in 0..n_az {
+            let phi = -CLUTTER_FOV_DEG.to_radians() + (j as f64 + 0.5) * dphi;
+            let mut snr = SNR_REF_DB + db(sigma / 10.0) - 40.0 * (r / 100.0).log10();
+            snr += 4.0 * db(field_pattern(phi.to_degrees(), AZ_BW_DEG));
+            snr += 4.0 * db(field_pattern(-psi.to_degrees(), EL_BW_DEG));
+            let mean = undb(snr);
+            // Below T/40 a cell exceeds T with probability < e^-40: not drawn.
+            if mean < threshold / 40.0 {
+                continue;
+            }
+            let p = rng
+                .cnormal()
+                .scale(mean.sqrt())
+                .add(rng.cnormal())
+                .norm_sqr();
+            if p >= threshold {
+                let rel = DVec3::new(r * psi.cos() * phi.cos(), r * psi.cos() * phi.sin(), -h);
+                let rcs = db(p) - SNR_REF_DB + 10.0 + 40.0 * (r / 100.0).log10() + cal_db;
+                out.push(noisy_detection(
+                    rng,
+                    rel,
+                    0.0,
+                    0.03,
+                    (rcs * 2.0).round() / 2.0,
+                ));
+            }
+        }
+        r += RANGE_BIN_M;
+    }
+    out
+}
+
+/// Writes a road-clutter campaign: a parked radar 0.5 m over a flat asphalt road, three trihedrals
+/// at ±6° and 0°, 20–60 m (beyond the clutter, so that no clutter detection is taken for a
+/// target), 30 stations of 4 frames, 2 cm ground-truth jitter, ~10 % of the measured frames
+/// missing. `hidden_value`: γ in dB.
+pub fn radar_clutter_campaign(case: ClutterCase, seed: u64, dir: &Path) -> anyhow::Result<Written> {
+    std::fs::create_dir_all(dir)?;
+    let mut rng = Rng::new(seed.wrapping_mul(4271).wrapping_add(case as u64 + 60));
+    let (pos_sigma, height_error) = (0.02, 0.02);
+    let h_s = RADAR_MOUNT_H;
+    let sensor = DVec3::new(0.0, 0.0, h_s);
+    let gamma_db = rng.range(-24.0, -18.0);
+    let physics = RadarPhysics {
+        spreading: 4.0,
+        area_exp: 2.0,
+        azimuth_pattern: true,
+        multipath: None,
+        rain_db_km: 0.0,
+        scalloping: false,
+    };
+    let cal_db = rng.range(-3.0, 3.0);
+    let targets = three_trihedrals(&mut rng, height_error);
+    let az: [f64; 3] = [-6.0, 0.0, 6.0];
+    let (mut views, mut meas, mut sims) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut frame, mut dropped) = (0u64, 0usize);
+    for k in 0..30usize {
+        let r0 = 20.0 + 40.0 * k as f64 / 29.0;
+        for _ in 0..4 {
+            let (mut logged, mut m_dets, mut s_dets) = (Vec::new(), Vec::new(), Vec::new());
+            for (i, t) in targets.iter().enumerate() {
+                let a = az[(i + k) % 3].to_radians();
+                let r = r0 + 1.5 * i as f64;
+                let yaw = a + PI;
+                let c_true = DVec3::new(
+                    r * a.cos(),
+                    r * a.sin(),
+                    trihedral_centre_z(t.edge, t.top_true),
+                );
+                let jitter = DVec3::new(rng.normal(), rng.normal(), rng.normal()) * pos_sigma;
+                let c_log =
+                    DVec3::new(c_true.x, c_true.y, trihedral_centre_z(t.edge, t.top_logged))
+                        + jitter;
+                logged.push(LoggedBox {
+                    id: t.id,
+                    centre: c_log,
+                    dims: trihedral_dims(t.edge),
+                    yaw,
+                    model_reference: format!("osiris:trihedral?edge_m={}&mount=none", t.edge),
+                    velocity: DVec3::ZERO,
+                });
+                let rel_s = apex_from_box(c_log, yaw, t.edge) - sensor;
+                let snr_s = radar_snr_db(&physics, sensor, sensor + rel_s, t.edge);
+                if snr_s >= DET_THRESHOLD_DB {
+                    let rcs = snr_s - SNR_REF_DB + 10.0 + 40.0 * (rel_s.length() / 100.0).log10();
+                    s_dets.push(osi3::RadarDetection {
+                        object_id: ident(t.id),
+                        position: spherical(rel_s),
+                        radial_velocity: Some(0.0),
+                        rcs: Some(rcs),
+                        existence_probability: Some(1.0),
+                        ..Default::default()
+                    });
+                }
+                let rel_t = apex_from_box(c_true, yaw, t.edge) - sensor;
+                let snr_t = radar_snr_db(&physics, sensor, sensor + rel_t, t.edge);
+                let (snr_m, rcs) = measured_rcs(&mut rng, snr_t, 0.0, rel_t.length(), cal_db);
+                if snr_m >= DET_THRESHOLD_DB {
+                    m_dets.push(noisy_detection(&mut rng, rel_t, 0.0, 0.03, rcs));
+                }
+            }
+            match case {
+                ClutterCase::RoadClutter => m_dets.extend(road_clutter_detections(
+                    &mut rng,
+                    sensor,
+                    undb(gamma_db),
+                    cal_db,
+                )),
+                ClutterCase::FalseAlarms => {
+                    // Poisson(20) by inversion.
+                    let (mut n, mut p, l) = (0usize, rng.uniform(), (-20.0f64).exp());
+                    while p > l {
+                        p *= rng.uniform();
+                        n += 1;
+                    }
+                    for _ in 0..n {
+                        let (r, phi) = (rng.range(0.0, 60.0), rng.range(-40.0, 40.0).to_radians());
+                        let rel = DVec3::new(r * phi.cos(), r * phi.sin(), 0.0);
+                        let rcs = rng.range(-40.0, -20.0);
+                        m_dets.push(noisy_detection(&mut rng, rel, 0.0, 0.03, rcs));
+                    }
+                }
+                ClutterCase::Null => {}
+            }
+            views.push(sensor_view(frame, h_s, &logged));
+            sims.push(sensor_data_radar(frame, h_s, s_dets));
+            if rng.uniform() < 0.10 {
+                dropped += 1;
+            } else {
+                meas.push(sensor_data_radar(frame, h_s, m_dets));
+            }
+            frame += 1;
+        }
+    }
+    write_radar_traces(dir, &views, &meas, &sims)?;
+    let toml = radar_toml(
+        &format!("independent-radar-{}-{seed}", case.name()),
+        &format!(
+            "independent truth generator (tests/support/independent_truth.rs): parked radar over asphalt, trihedrals, hidden case `{}`",
+            case.name()
+        ),
+        power_semantics(false),
+        0.0,
+        "asphalt",
+        pos_sigma,
+        &trihedral_targets_toml(&targets),
+    );
+    let meta = dir.join("consistency.toml");
+    std::fs::write(&meta, toml)?;
+    Ok(Written {
+        meta,
+        model_trace: dir.join("model.osi"),
+        hidden: case.name().into(),
+        hidden_value: (case == ClutterCase::RoadClutter).then_some(gamma_db),
+        frames: frame as usize,
+        dropped_frames: dropped,
+    })
+}
+
+/// Hidden-effect cases of the board campaigns (rough metal boards turned 4–48° from the line of
+/// sight).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BoardCase {
+    /// The boards' surfaces are rough (σ_h = 0.2–0.5 mm): the measurement has the incoherent
+    /// (diffuse) term, the model trace only the coherent one.
+    DiffuseScattering,
+    /// Smooth boards: nothing hidden.
+    Null,
+}
+
+impl BoardCase {
+    pub fn name(self) -> &'static str {
+        match self {
+            BoardCase::DiffuseScattering => "diffuse_scattering",
+            BoardCase::Null => "boards_null",
+        }
+    }
+}
+
+/// Coherent RCS of a flat metal board of width `w` and height `h` turned by `aspect` (rad) about
+/// its vertical axis from the line of sight, tilted to face the radar in elevation, with an rms
+/// surface height `sigma_h` (m), m²: physical optics σ = (4π(wh)²/λ²)·cos²α·S(kw·sin α) (Knott,
+/// Shaeffer & Tuley, *Radar Cross Section*, 2nd ed., ch. 5, the flat plate), the sinc² lobes
+/// replaced by S(x) = 1/(1 + 2x²), their mean 1/(2x²) beyond the main lobe: a 1 GHz sweep moves a
+/// lobe by 1.3 % of x, and the 2 cm survey by ≈ 1 lobe at 10°, so station-by-station lobes are not
+/// reproducible (GUESSED interpolation); times the Ament coherent loss exp(−(2kσ_h cos α)²).
+pub fn board_coherent_rcs(w: f64, h: f64, aspect: f64, sigma_h: f64) -> f64 {
+    let k = 2.0 * PI / radar_lambda();
+    let x = k * w * aspect.sin();
+    4.0 * PI * (w * h).powi(2) / radar_lambda().powi(2) * aspect.cos().powi(2) / (1.0 + 2.0 * x * x)
+        * (-(2.0 * k * sigma_h * aspect.cos()).powi(2)).exp()
+}
+
+/// Incoherent RCS of the same board, m²: Lambert's law on the power the roughness takes from the
+/// coherent reflection (metal, |Γ|² = 1), σ⁰ = 4(1 − e^{−(2kσ_h cos α)²})·cos²α, over the face
+/// area w·h (physics.md §1.9).
+pub fn board_diffuse_rcs(w: f64, h: f64, aspect: f64, sigma_h: f64) -> f64 {
+    let k = 2.0 * PI / radar_lambda();
+    4.0 * (1.0 - (-(2.0 * k * sigma_h * aspect.cos()).powi(2)).exp()) * aspect.cos().powi(2) * w * h
+}
+
+/// Writes a board campaign: three metal boards (0.3 × 0.5, 0.4 × 0.4, 0.5 × 0.3 m, centres at the
+/// sensor's height, tilted to face it in elevation) at −6°, 0°, +6°, 8–16 m, each turned 4–48°
+/// (in 4° steps, either side) from the line of sight, 72 stations of 3 frames, RCS reported, 2 cm
+/// ground-truth jitter, ~10 % of the measured frames missing. `hidden_value`: σ_h in mm.
+pub fn radar_board_campaign(case: BoardCase, seed: u64, dir: &Path) -> anyhow::Result<Written> {
+    std::fs::create_dir_all(dir)?;
+    let mut rng = Rng::new(seed.wrapping_mul(3571).wrapping_add(case as u64 + 80));
+    let pos_sigma = 0.02;
+    let h_s = RADAR_MOUNT_H;
+    let sensor = DVec3::new(0.0, 0.0, h_s);
+    let sigma_h = match case {
+        BoardCase::DiffuseScattering => rng.range(0.2e-3, 0.5e-3),
+        BoardCase::Null => 0.0,
+    };
+    let cal_db = rng.range(-3.0, 3.0);
+    let boards = [(0.3, 0.5), (0.4, 0.4), (0.5, 0.3)];
+    let az: [f64; 3] = [-6.0, 0.0, 6.0];
+    // SNR of an RCS σ at `rel` (sensor → board centre) by the link budget of physics.md §1.1 with
+    // the two-way Gaussian patterns.
+    let snr_of = |sigma: f64, rel: DVec3| {
+        let r = rel.length();
+        let (a, e) = (
+            rel.y.atan2(rel.x).to_degrees(),
+            (rel.z / r).asin().to_degrees(),
+        );
+        SNR_REF_DB + db(sigma / 10.0) - 40.0 * (r / 100.0).log10()
+            + 4.0 * db(field_pattern(a, AZ_BW_DEG))
+            + 4.0 * db(field_pattern(e, EL_BW_DEG))
+    };
+    let (mut views, mut meas, mut sims) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut frame, mut dropped) = (0u64, 0usize);
+    for k in 0..72usize {
+        let r0 = [8.0, 12.0, 16.0][(k / 12) % 3];
+        for _ in 0..3 {
+            let (mut logged, mut m_dets, mut s_dets) = (Vec::new(), Vec::new(), Vec::new());
+            for (i, &(w, h)) in boards.iter().enumerate() {
+                let a = az[(i + k) % 3].to_radians();
+                let r = r0 + 1.5 * i as f64;
+                // Aspect 4–48°, one side or the other by station.
+                let side = if (k / 36) % 2 == 0 { 1.0 } else { -1.0 };
+                let aspect = side * (4.0 + 4.0 * ((k + 4 * i) % 12) as f64).to_radians();
+                let yaw = a + PI + aspect;
+                let c_true = DVec3::new(r * a.cos(), r * a.sin(), h_s);
+                let jitter = DVec3::new(rng.normal(), rng.normal(), rng.normal()) * pos_sigma;
+                let c_log = c_true + jitter;
+                logged.push(LoggedBox {
+                    id: 100 + i as u64,
+                    centre: c_log,
+                    dims: DVec3::new(0.01, w, h),
+                    yaw,
+                    model_reference: format!(
+                        "osiris:board?width_m={w}&height_m={h}&material=aluminium&mount=none"
+                    ),
+                    velocity: DVec3::ZERO,
+                });
+                // The aspect as each side sees it: the board's normal against the line of sight.
+                let aspect_of = |c: DVec3| {
+                    let normal = DVec3::new(yaw.cos(), yaw.sin(), 0.0);
+                    let to_sensor = (sensor - c).truncate().normalize().extend(0.0);
+                    normal.dot(to_sensor).clamp(-1.0, 1.0).acos()
+                };
+                // The RCS estimate: the SNR less that of 1 m² at the detected position.
+                let rel_s = c_log - sensor;
+                let snr_s = snr_of(board_coherent_rcs(w, h, aspect_of(c_log), sigma_h), rel_s);
+                if snr_s >= DET_THRESHOLD_DB {
+                    let rcs = snr_s - snr_of(1.0, rel_s);
+                    s_dets.push(osi3::RadarDetection {
+                        object_id: ident(100 + i as u64),
+                        position: spherical(rel_s),
+                        radial_velocity: Some(0.0),
+                        rcs: Some(rcs),
+                        existence_probability: Some(1.0),
+                        ..Default::default()
+                    });
+                }
+                let rel_t = c_true - sensor;
+                let alpha = aspect_of(c_true);
+                let snr_c = snr_of(board_coherent_rcs(w, h, alpha, sigma_h), rel_t);
+                let snr_d = undb(snr_of(board_diffuse_rcs(w, h, alpha, sigma_h), rel_t));
+                let (snr_m, _) = measured_rcs(&mut rng, snr_c, snr_d, rel_t.length(), 0.0);
+                if snr_m >= DET_THRESHOLD_DB {
+                    let rcs = ((snr_m - snr_of(1.0, rel_t) + cal_db) * 2.0).round() / 2.0;
+                    m_dets.push(noisy_detection(&mut rng, rel_t, 0.0, 0.03, rcs));
+                }
+            }
+            views.push(sensor_view(frame, h_s, &logged));
+            sims.push(sensor_data_radar(frame, h_s, s_dets));
+            if rng.uniform() < 0.10 {
+                dropped += 1;
+            } else {
+                meas.push(sensor_data_radar(frame, h_s, m_dets));
+            }
+            frame += 1;
+        }
+    }
+    write_radar_traces(dir, &views, &meas, &sims)?;
+    let targets: String = boards
+        .iter()
+        .enumerate()
+        .map(|(i, (w, h))| {
+            format!(
+                "[[target]]\nid = {}\nkind = \"board\"\nsize_m = [{w}, {h}]\nmaterial = \"aluminium\"\norientation = \"turned 4-48 deg from the line of sight\"\n\n",
+                100 + i
+            )
+        })
+        .collect();
+    let toml = radar_toml(
+        &format!("independent-radar-{}-{seed}", case.name()),
+        &format!(
+            "independent truth generator (tests/support/independent_truth.rs): metal boards turned off the line of sight, hidden case `{}`",
+            case.name()
+        ),
+        "rcs = \"RCS estimate in dBsm: SNR range-compensated with R^4 and the antenna gains at the detected angle, unknown calibration offset, 0.5 dB steps\"",
+        0.0,
+        "absorber mats (no ground reflection)",
+        pos_sigma,
+        &targets,
+    );
+    let meta = dir.join("consistency.toml");
+    std::fs::write(&meta, toml)?;
+    Ok(Written {
+        meta,
+        model_trace: dir.join("model.osi"),
+        hidden: case.name().into(),
+        hidden_value: (case == BoardCase::DiffuseScattering).then_some(sigma_h * 1e3),
         frames: frame as usize,
         dropped_frames: dropped,
     })
