@@ -80,13 +80,14 @@ impl FrameHeader {
         };
         sd.moving_object_header = Some(entity_header);
         sd.stationary_object_header = Some(entity_header);
-        // Traffic lights, signs, road markings and lane boundaries: reported by the camera only.
-        if out.perception.camera.is_some() {
-            sd.traffic_light_header = Some(entity_header);
-            sd.traffic_sign_header = Some(entity_header);
-            sd.road_marking_header = Some(entity_header);
-            sd.lane_boundary_header = Some(entity_header);
-        }
+        // Traffic lights, signs, road markings and lane boundaries: reported by the physical camera
+        // only (`crate::recognition::traffic`); every other output carries no header for them.
+        let traffic = (self.mode == ModelMode::Physical && out.perception.camera.is_some())
+            .then_some(entity_header);
+        sd.traffic_light_header = traffic;
+        sd.traffic_sign_header = traffic;
+        sd.road_marking_header = traffic;
+        sd.lane_boundary_header = traffic;
         if let Some(fd) = sd.feature_data.as_mut() {
             fd.version = Some(interface_version());
             for d in &mut fd.radar_sensor {

@@ -122,9 +122,7 @@ impl<'a> TruthIndex<'a> {
         ];
         for (kind, ids) in traffic {
             for v in ids.into_iter().filter_map(|i| i.and_then(|i| i.value)) {
-                by_id
-                    .entry(v)
-                    .or_insert(TruthRef::TrafficControl(kind));
+                by_id.entry(v).or_insert(TruthRef::TrafficControl(kind));
             }
         }
         TruthIndex { by_id }
