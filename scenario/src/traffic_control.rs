@@ -161,7 +161,7 @@ impl SignalHeadConfig {
     /// Which bulbs (red, yellow, green) are lit and whether the lit ones flash, at time `t`.
     pub fn state_at(&self, t: f64) -> SignalState {
         let period: f64 = self.cycle.iter().map(|p| p.duration_s).sum();
-        if self.cycle.is_empty() || !(period > 0.0) {
+        if self.cycle.is_empty() || period.is_nan() || period <= 0.0 {
             return SignalState::Off;
         }
         let mut tau = (t + self.offset_s).rem_euclid(period);

@@ -685,7 +685,7 @@ impl TrafficRecognition {
         let bh = (s.v_max - s.v_min + 1) as f64;
         let ring = 2usize.max((0.25 * bw.max(bh)).ceil() as usize);
         let contrast = ring_contrast(input.aux, l, w, h, k as u32, s, ring);
-        if !(contrast.abs() >= cfg.marking_min_contrast) {
+        if contrast.is_nan() || contrast.abs() < cfg.marking_min_contrast {
             return;
         }
         let Some(ground) = Self::ground_point(input, Self::box_ray(input, s)) else {
