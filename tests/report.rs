@@ -336,7 +336,8 @@ fn kpi_tables_match_the_closed_form() {
     assert_eq!(
         fh.join(","),
         "sensor,frame,time_s,ground_truth_in_fov,detected_objects,matched_objects,false_alarms,\
-         feature_detections,step_wall_ms"
+         feature_detections,step_wall_ms,traffic_lights,traffic_light_state_errors,traffic_signs,\
+         lane_boundaries"
     );
     assert_eq!(frames.len(), 1);
     let f = &frames[0];
@@ -426,4 +427,61 @@ fn report_html_shows_a_range_doppler_map_and_detections() {
     // Self-contained.
     assert!(!html.contains("src=\"http") && !html.contains("<link"));
     assert!(html.contains("document.body.dataset.rendered"));
+}
+
+/// A reported bulb state is an error when lit/dark differs from the ground truth's mode
+/// (CONSTANT/COUNTING lit, OFF dark); FLASHING ground truth is not judged.
+#[test]
+fn traffic_light_state_errors_against_the_ground_truth_modes() {
+    use osi3::traffic_light::classification::Mode;
+    let bulb = |id: u64, mode: Mode| osi3::TrafficLight {
+        id: Some(osiris_proto::id(id)),
+        classification: Some(osi3::traffic_light::Classification {
+            mode: Some(mode as i32),
+            ..Default::default()
+        }),
+        ..Default::default()
+    };
+    let detected = |id: u64, mode: Mode| osi3::DetectedTrafficLight {
+        header: Some(osi3::DetectedItemHeader {
+            ground_truth_id: vec![osiris_proto::id(id)],
+            ..Default::default()
+        }),
+        candidate: vec![osi3::detected_traffic_light::CandidateTrafficLight {
+            probability: Some(1.0),
+            classification: Some(osi3::traffic_light::Classification {
+                mode: Some(mode as i32),
+                ..Default::default()
+            }),
+        }],
+        ..Default::default()
+    };
+    let gt = osi3::GroundTruth {
+        traffic_light: vec![
+            bulb(1, Mode::Constant),
+            bulb(2, Mode::Off),
+            bulb(3, Mode::Flashing),
+            bulb(4, Mode::Counting),
+        ],
+        ..Default::default()
+    };
+    let sd = osi3::SensorData {
+        traffic_light: vec![
+            detected(1, Mode::Off),      // lit read dark: error
+            detected(2, Mode::Off),      // right
+            detected(3, Mode::Off),      // flashing: not judged
+            detected(4, Mode::Constant), // counting read lit: right
+            detected(9, Mode::Off),      // no ground truth: not judged
+        ],
+        ..Default::default()
+    };
+    assert_eq!(osiris::report::kpi::traffic_light_state_errors(&sd, &gt), 1);
+    let sd2 = osi3::SensorData {
+        traffic_light: vec![detected(2, Mode::Constant), detected(1, Mode::Constant)],
+        ..Default::default()
+    };
+    assert_eq!(
+        osiris::report::kpi::traffic_light_state_errors(&sd2, &gt),
+        1
+    );
 }

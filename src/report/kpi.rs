@@ -27,7 +27,7 @@ use osiris_proto::osi3;
 /// `objects.csv` header.
 pub const OBJECTS_HEADER: &str = "sensor,frame,time_s,gt_id,gt_type,gt_range_m,gt_azimuth_deg,gt_range_rate_mps,detected,tracking_id,det_range_m,range_error_m,det_range_rate_mps,range_rate_error_mps,existence_probability";
 /// `frames.csv` header.
-pub const FRAMES_HEADER: &str = "sensor,frame,time_s,ground_truth_in_fov,detected_objects,matched_objects,false_alarms,feature_detections,step_wall_ms";
+pub const FRAMES_HEADER: &str = "sensor,frame,time_s,ground_truth_in_fov,detected_objects,matched_objects,false_alarms,feature_detections,step_wall_ms,traffic_lights,traffic_light_state_errors,traffic_signs,lane_boundaries";
 
 /// A ground-truth object in a sensor's field of view, and what the sensor reported about it.
 #[derive(Debug, Clone, PartialEq)]
@@ -72,6 +72,15 @@ pub struct FrameRow {
     pub false_alarms: Option<usize>,
     pub feature_detections: usize,
     pub step_wall_ms: Option<f64>,
+    /// Detected traffic-light bulbs (`SensorData.traffic_light`).
+    pub traffic_lights: usize,
+    /// Of those, bulbs whose reported lit/dark state differs from the ground truth's (mode
+    /// CONSTANT or COUNTING = lit, OFF = dark; `None`: no ground truth).
+    pub traffic_light_state_errors: Option<usize>,
+    /// Detected traffic signs.
+    pub traffic_signs: usize,
+    /// Detected lane boundaries.
+    pub lane_boundaries: usize,
 }
 
 /// A detected object (moving or stationary) in the SensorView's sensor frame.
@@ -285,6 +294,48 @@ pub fn feature_detections(sd: &osi3::SensorData) -> usize {
     })
 }
 
+/// Detected traffic-light bulbs whose reported state (lit: mode CONSTANT, FLASHING or COUNTING;
+/// dark: OFF) differs from their ground truth's (lit: CONSTANT or COUNTING; dark: OFF; bulbs whose
+/// ground truth is FLASHING or unknown are not judged).
+pub fn traffic_light_state_errors(sd: &osi3::SensorData, gt: &osi3::GroundTruth) -> usize {
+    use osi3::traffic_light::classification::Mode;
+    let lit = |m: i32| m == Mode::Constant as i32 || m == Mode::Counting as i32;
+    sd.traffic_light
+        .iter()
+        .filter(|d| {
+            let Some(gid) = d
+                .header
+                .as_ref()
+                .and_then(|h| h.ground_truth_id.first())
+                .and_then(|i| i.value)
+            else {
+                return false;
+            };
+            let Some(truth) = gt
+                .traffic_light
+                .iter()
+                .find(|t| t.id.and_then(|i| i.value) == Some(gid))
+                .and_then(|t| t.classification.as_ref())
+                .and_then(|c| c.mode)
+            else {
+                return false;
+            };
+            if !(lit(truth) || truth == Mode::Off as i32) {
+                return false;
+            }
+            let Some(reported) = d
+                .candidate
+                .first()
+                .and_then(|c| c.classification.as_ref())
+                .and_then(|c| c.mode)
+            else {
+                return false;
+            };
+            (reported != Mode::Off as i32) != lit(truth)
+        })
+        .count()
+}
+
 /// The KPI rows of one SensorData frame: `frame` is the sensor's 0-based SensorData index,
 /// `view` the SensorView the sensor was given (`None`: no ground truth).
 pub fn frame_rows(
@@ -305,7 +356,14 @@ pub fn frame_rows(
         false_alarms: None,
         feature_detections: feature_detections(sd),
         step_wall_ms,
+        traffic_lights: sd.traffic_light.len(),
+        traffic_light_state_errors: None,
+        traffic_signs: sd.traffic_sign.len(),
+        lane_boundaries: sd.lane_boundary.len(),
     };
+    if let Some(gt) = view.and_then(|v| v.global_ground_truth.as_ref()) {
+        row.traffic_light_state_errors = Some(traffic_light_state_errors(sd, gt));
+    }
     let (Some(g), Some(gt)) = (geometry, view.and_then(|v| v.global_ground_truth.as_ref())) else {
         return (row, Vec::new(), boxes);
     };
@@ -448,7 +506,7 @@ pub fn object_line(out: &mut String, sensor: &str, r: &ObjectRow) {
 pub fn frame_line(out: &mut String, sensor: &str, r: &FrameRow) {
     let _ = writeln!(
         out,
-        "{},{},{:.6},{},{},{},{},{},{}",
+        "{},{},{:.6},{},{},{},{},{},{},{},{},{},{}",
         csv_field(sensor),
         r.frame,
         r.time_s,
@@ -458,5 +516,9 @@ pub fn frame_line(out: &mut String, sensor: &str, r: &FrameRow) {
         opt_u(r.false_alarms),
         r.feature_detections,
         r.step_wall_ms.map_or(String::new(), |v| format!("{v:.3}")),
+        r.traffic_lights,
+        opt_u(r.traffic_light_state_errors),
+        r.traffic_signs,
+        r.lane_boundaries,
     );
 }
