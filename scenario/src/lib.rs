@@ -560,7 +560,8 @@ impl Default for ScenarioConfig {
     /// 3-lane straight road, 400 m; ego at 25 m/s in the middle lane; a slower car 40 m ahead in the
     /// same lane, a truck in the left lane, a car behind the ego, a cyclist and a pedestrian on the
     /// right shoulder ahead, a guardrail on the right, a corner reflector, a board and a cone ahead;
-    /// a signalised stop line 135 m ahead (signal heads on both sides turning from green to yellow
+    /// a signalised stop line 135 m ahead (300 mm signal heads on both sides, EN 12368's size for
+    /// fast approaches, turning from green to yellow
     /// at t = 1 s, a stop line across the three lanes, right/straight/left arrows before it), a
     /// 70 km/h speed-limit sign and a "traffic signals ahead" warning sign on the right;
     /// camera, radar and LiDAR with their default mountings; 2 s at 0.02 s.
@@ -661,7 +662,7 @@ impl Default for ScenarioConfig {
                     lane,
                     lateral_offset_m,
                     z_m: 2.5,
-                    lens_diameter_m: 0.2,
+                    lens_diameter_m: 0.3,
                     cycle: cycle.clone(),
                     offset_s: 0.0,
                     id: None,
