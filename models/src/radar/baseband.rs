@@ -261,11 +261,15 @@ pub struct RadarChain {
     pub(super) path_bins: Vec<(f64, f64, u32)>,
     /// Rows (elevation indices) of the angle grid holding virtual elements.
     pub(super) el_rows: Vec<usize>,
-    /// Elevation search steering phasors e^{jπ z_r s_i}, `s_i = −1 + 2i/(8·el_len)`, row-minor
-    /// (`[i · el_rows.len() + r]`; empty with fewer than three rows): planned once.
-    pub(super) el_steer: Vec<Complex64>,
+    /// Elevation search steering phasors e^{jπ z_r s_i}, `s_i = −1 + 2i/(8·el_len)`, real and
+    /// imaginary parts, row-major (`[r · 8 el_len + i]`; empty with fewer than three rows):
+    /// planned once.
+    pub(super) el_steer_re: Vec<f64>,
+    pub(super) el_steer_im: Vec<f64>,
     /// Σ w_k² of the angle window.
     pub(super) angle_win_sq: f64,
+    /// The virtual array's coordinates for the angle fit's steering vectors.
+    pub(super) steer_plan: processing::SteerPlan,
     /// Per virtual element: index into `el_rows` of its row.
     pub(super) el_row_of: Vec<usize>,
     /// Per virtual element: its column is occupied in every row (matched sub-apertures for the
@@ -397,10 +401,11 @@ impl RadarChain {
         el_rows.dedup();
         let el_steer: Vec<Complex64> = if has_el && el_rows.len() >= 3 {
             let m = 8 * el_len;
-            (0..m)
-                .flat_map(|i| {
-                    let s = -1.0 + 2.0 * i as f64 / m as f64;
-                    el_rows.iter().map(move |&r| {
+            el_rows
+                .iter()
+                .flat_map(|&r| {
+                    (0..m).map(move |i| {
+                        let s = -1.0 + 2.0 * i as f64 / m as f64;
                         Complex64::from_polar(1.0, std::f64::consts::PI * r as f64 * s)
                     })
                 })
@@ -508,6 +513,7 @@ impl RadarChain {
         };
         let (sy_period, sz_period) = (period(0), period(1));
         let lobe_rad = Antennas::new(front_end, effects).main_lobe_rad();
+        let steer_plan = processing::SteerPlan::new(&virt);
         let mut chain = RadarChain {
             ns,
             nc,
@@ -585,7 +591,9 @@ impl RadarChain {
             timings_s: [0.0; 4],
             dets: Vec::new(),
             path_bins: Vec::new(),
-            el_steer,
+            steer_plan,
+            el_steer_re: el_steer.iter().map(|e| e.re).collect(),
+            el_steer_im: el_steer.iter().map(|e| e.im).collect(),
             el_rows,
             angle_win_sq,
             el_row_of,
