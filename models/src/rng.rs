@@ -246,6 +246,175 @@ static ZIG_NORM_F: [f64; 257] = [
     1.000000000000000000,
 ];
 
+/// xoshiro256++ (Blackman & Vigna, "Scrambled linear pseudorandom number generators", ACM TOMS
+/// 47(4), 2021): the generator behind `rand::rngs::SmallRng` on 64-bit targets, with the same
+/// `seed_from_u64` (SplitMix64 expansion), so `Xoshiro256pp::seed_from_u64(s)` and
+/// `SmallRng::seed_from_u64(s)` give the same stream (checked in the tests). Its state is open,
+/// for [`NormalQuad`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Xoshiro256pp {
+    s: [u64; 4],
+}
+
+impl Xoshiro256pp {
+    /// The generator `rand::rngs::SmallRng::seed_from_u64(seed)` starts from.
+    pub fn seed_from_u64(mut seed: u64) -> Xoshiro256pp {
+        const PHI: u64 = 0x9e37_79b9_7f4a_7c15;
+        let mut s = [0; 4];
+        for w in s.iter_mut() {
+            seed = seed.wrapping_add(PHI);
+            let mut z = seed;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            *w = z ^ (z >> 31);
+        }
+        Xoshiro256pp { s }
+    }
+}
+
+impl rand::RngCore for Xoshiro256pp {
+    #[inline]
+    fn next_u32(&mut self) -> u32 {
+        (self.next_u64() >> 32) as u32
+    }
+
+    #[inline]
+    fn next_u64(&mut self) -> u64 {
+        let s = &mut self.s;
+        let res = s[0].wrapping_add(s[3]).rotate_left(23).wrapping_add(s[0]);
+        let t = s[1] << 17;
+        s[2] ^= s[0];
+        s[3] ^= s[1];
+        s[1] ^= s[2];
+        s[0] ^= s[3];
+        s[2] ^= t;
+        s[3] = s[3].rotate_left(45);
+        res
+    }
+
+    fn fill_bytes(&mut self, dst: &mut [u8]) {
+        rand::rand_core::impls::fill_bytes_via_next(self, dst)
+    }
+}
+
+/// Four [`Xoshiro256pp`] streams drawn together: `fill` gives each stream's sequence of
+/// [`standard_normal`] deviates (as f32) exactly as four separate loops would, with the four
+/// generators and the ziggurat's common case in AVX2 registers where available (one gather of
+/// the layer edges for four draws; a stream whose draw needs the slow path takes it alone, from
+/// its own state, and the four go on together).
+#[derive(Debug, Clone)]
+pub struct NormalQuad {
+    lanes: [Xoshiro256pp; 4],
+}
+
+impl NormalQuad {
+    /// Streams `SmallRng::seed_from_u64(seeds[l])`.
+    pub fn seed_from_u64(seeds: [u64; 4]) -> NormalQuad {
+        NormalQuad {
+            lanes: seeds.map(Xoshiro256pp::seed_from_u64),
+        }
+    }
+
+    /// `out[n][l]`, n = 0, 1, …: the next deviates of stream l, in order (`standard_normal(l) as
+    /// f32`).
+    pub fn fill(&mut self, out: &mut [[f32; 4]]) {
+        #[cfg(target_arch = "x86_64")]
+        if crate::cpu::avx2_fma() {
+            // SAFETY: the CPU supports AVX2 and FMA (run-time check).
+            return unsafe { self.fill_avx2(out) };
+        }
+        self.fill_portable(out);
+    }
+
+    /// [`Self::fill`] one stream after the other.
+    fn fill_portable(&mut self, out: &mut [[f32; 4]]) {
+        for (l, rng) in self.lanes.iter_mut().enumerate() {
+            for o in out.iter_mut() {
+                o[l] = standard_normal(rng) as f32;
+            }
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn fill_avx2(&mut self, out: &mut [[f32; 4]]) {
+        use std::arch::x86_64::*;
+        // State word w of the four streams in one register (lane l = stream l).
+        let load = |lanes: &[Xoshiro256pp; 4]| {
+            [0, 1, 2, 3].map(|w| {
+                let v = [lanes[0].s[w], lanes[1].s[w], lanes[2].s[w], lanes[3].s[w]];
+                // SAFETY: 4 u64 = 32 bytes, unaligned load.
+                unsafe { _mm256_loadu_si256(v.as_ptr().cast()) }
+            })
+        };
+        let store = |st: &[__m256i; 4], lanes: &mut [Xoshiro256pp; 4]| {
+            for (w, v) in st.iter().enumerate() {
+                let mut a = [0u64; 4];
+                // SAFETY: 32 bytes into 4 u64, unaligned store.
+                unsafe { _mm256_storeu_si256(a.as_mut_ptr().cast(), *v) };
+                for (lane, x) in lanes.iter_mut().zip(a) {
+                    lane.s[w] = x;
+                }
+            }
+        };
+        let mut st = load(&self.lanes);
+        let exp = _mm256_set1_epi64x(1024 << 52);
+        let three = _mm256_set1_pd(3.0);
+        let byte = _mm256_set1_epi64x(0xff);
+        let abs_mask = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
+        for o in out.iter_mut() {
+            // xoshiro256++ in each lane.
+            let [s0, s1, s2, s3] = st;
+            let sum = _mm256_add_epi64(s0, s3);
+            let rot = _mm256_or_si256(_mm256_slli_epi64::<23>(sum), _mm256_srli_epi64::<41>(sum));
+            let bits = _mm256_add_epi64(rot, s0);
+            let t = _mm256_slli_epi64::<17>(s1);
+            let s2 = _mm256_xor_si256(s2, s0);
+            let s3 = _mm256_xor_si256(s3, s1);
+            let s1 = _mm256_xor_si256(s1, s2);
+            let s0 = _mm256_xor_si256(s0, s3);
+            let s2 = _mm256_xor_si256(s2, t);
+            let s3 = _mm256_or_si256(_mm256_slli_epi64::<45>(s3), _mm256_srli_epi64::<19>(s3));
+            st = [s0, s1, s2, s3];
+            // The ziggurat's common case (see `standard_normal`).
+            let i = _mm256_and_si256(bits, byte);
+            // SAFETY: i ≤ 255, so i and i + 1 index the 257-entry tables.
+            let (xi, xi1) = unsafe {
+                (
+                    _mm256_i64gather_pd::<8>(ZIG_NORM_X.as_ptr(), i),
+                    _mm256_i64gather_pd::<8>(ZIG_NORM_X.as_ptr().add(1), i),
+                )
+            };
+            let u = _mm256_sub_pd(
+                _mm256_castsi256_pd(_mm256_or_si256(_mm256_srli_epi64::<12>(bits), exp)),
+                three,
+            );
+            let x = _mm256_mul_pd(u, xi);
+            let ok =
+                _mm256_movemask_pd(_mm256_cmp_pd::<_CMP_LT_OQ>(_mm256_and_pd(x, abs_mask), xi1));
+            // SAFETY: 4 f32 = 16 bytes into `o`, unaligned store.
+            unsafe { _mm_storeu_ps(o.as_mut_ptr(), _mm256_cvtpd_ps(x)) };
+            if ok != 0b1111 {
+                // A stream left the common case: its slow path from its own state.
+                let (mut xa, mut ua, mut ia) = ([0f64; 4], [0f64; 4], [0u64; 4]);
+                // SAFETY: 4 × 8 bytes each, unaligned stores.
+                unsafe {
+                    _mm256_storeu_pd(xa.as_mut_ptr(), x);
+                    _mm256_storeu_pd(ua.as_mut_ptr(), u);
+                    _mm256_storeu_si256(ia.as_mut_ptr().cast(), i);
+                }
+                store(&st, &mut self.lanes);
+                for l in (0..4).filter(|l| ok & (1 << l) == 0) {
+                    let v = standard_normal_slow(&mut self.lanes[l], ia[l] as usize, ua[l], xa[l]);
+                    o[l] = v as f32;
+                }
+                st = load(&self.lanes);
+            }
+        }
+        store(&st, &mut self.lanes);
+    }
+}
+
 #[cfg(test)]
 mod normal_tests {
     use super::standard_normal;
@@ -268,6 +437,41 @@ mod normal_tests {
                 );
             }
             assert_eq!(a.random::<u64>(), b.random::<u64>());
+        }
+    }
+
+    #[test]
+    fn xoshiro_and_the_quad_are_small_rng() {
+        use super::{NormalQuad, Xoshiro256pp};
+        let seeds = [3u64, 0, 0xDEAD_BEEF, u64::MAX];
+        for &seed in &seeds {
+            let (mut a, mut b) = (
+                SmallRng::seed_from_u64(seed),
+                Xoshiro256pp::seed_from_u64(seed),
+            );
+            for _ in 0..1000 {
+                assert_eq!(a.random::<u64>(), b.random::<u64>());
+            }
+        }
+        // Four streams of deviates, drawn in two calls (the state carries over), against four
+        // separate SmallRng loops; both kernels.
+        for simd in [true, false] {
+            let mut q = NormalQuad::seed_from_u64(seeds);
+            let mut out = vec![[0f32; 4]; 200_000];
+            for half in out.chunks_mut(100_000) {
+                if simd {
+                    q.fill(half);
+                } else {
+                    q.fill_portable(half);
+                }
+            }
+            for (l, &seed) in seeds.iter().enumerate() {
+                let mut r = SmallRng::seed_from_u64(seed);
+                for (n, o) in out.iter().enumerate() {
+                    let want: f32 = r.sample(StandardNormal);
+                    assert_eq!(o[l].to_bits(), want.to_bits(), "stream {l}, draw {n}");
+                }
+            }
         }
     }
 }
