@@ -69,8 +69,9 @@ fn process_cpu_s() -> Option<f64> {
 /// pool size). Keys: `bench`, `frames_per_s`, `frame_ms`, `synthesize_ms`, `process_ms`,
 /// `paths`, `threads`, `samples`, `chirps`, `virtual_channels`, `equivalent_cmacs_per_s` (the
 /// complex multiply-accumulates a direct evaluation of the cube would need, per second of
-/// synthesis: the synthesis uses a NUFFT), `stages_ms`, `frames_per_cpu_s_x_threads`,
-/// `detections_per_frame`, `target`.
+/// synthesis: the synthesis uses a NUFFT), `stages_ms` (`synthesize`: IF cube, range and
+/// Doppler FFTs; `integrate`: the non-coherent sum over the channels; `cfar`; `estimate`),
+/// `frames_per_cpu_s_x_threads`, `detections_per_frame`, `target`.
 ///
 /// The same figures for the 4D imaging preset (`"radar": {"preset": "imaging"}`, 512 samples ×
 /// 64 chirps × 192 virtual channels, paths to 200 m and ±30 m/s, elevation ±10°) under `imaging`,
@@ -177,7 +178,7 @@ fn bench_chain(
         "process_ms": proc_s / frames as f64 * 1e3,
         "stages_ms": {
             "synthesize": stages[0] * 1e3,
-            "doppler": stages[1] * 1e3,
+            "integrate": stages[1] * 1e3,
             "cfar": stages[2] * 1e3,
             "estimate": stages[3] * 1e3,
         },

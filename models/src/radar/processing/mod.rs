@@ -28,6 +28,8 @@ use crate::error::ModelError;
 mod angle;
 mod cfar;
 
+pub(super) use angle::SteerPlan;
+
 /// Upper bound of `ProcessingConfig::max_angle_peaks_per_cell`.
 pub const MAX_ANGLE_PEAKS: usize = 8;
 
