@@ -52,7 +52,7 @@
 //! cells' streams at once in AVX2 registers with the four-cell spreading
 //! ([`crate::rng::NormalQuad`]).
 //! Measured on the imaging preset (512 × 64 × 192, 2,000 paths; `osiris bench radar`, 2 threads):
-//! the synthesis with the Doppler FFTs went from 80 + 21 ms to ≈ 55 ms per frame.
+//! the synthesis with the Doppler FFTs went from 80 + 21 ms to 49 ms per frame (docs/benchmarks/).
 
 use crate::constants::SPEED_OF_LIGHT_M_S;
 use crate::rng::{NormalQuad, splitmix64, standard_normal};
