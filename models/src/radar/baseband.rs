@@ -52,7 +52,7 @@
 //! cells' streams at once in AVX2 registers with the four-cell spreading
 //! ([`crate::rng::NormalQuad`]).
 //! Measured on the imaging preset (512 × 64 × 192, 2,000 paths; `osiris bench radar`, 2 threads):
-//! the synthesis with the Doppler FFTs went from 80 + 21 ms to ≈ 55 ms per frame.
+//! the synthesis with the Doppler FFTs went from 80 + 21 ms to 49 ms per frame (docs/benchmarks/).
 
 use crate::constants::SPEED_OF_LIGHT_M_S;
 use crate::rng::{NormalQuad, splitmix64, standard_normal};
@@ -256,6 +256,8 @@ pub struct RadarChain {
     slot_im: Vec<f32>,
     /// Slot factors interleaved four chirps at a time ([`spread_quad`]).
     slot4: Vec<Quad>,
+    /// Synthesis buffers per rayon worker (by thread index), kept across frames.
+    chan_bufs: Vec<std::sync::Mutex<ChannelBufs>>,
     interf: Vec<C32>,
     interf_active: Vec<bool>,
     interf_rx: Vec<C32>,
@@ -590,6 +592,7 @@ impl RadarChain {
             slot_re: Vec::new(),
             slot_im: Vec::new(),
             slot4: Vec::new(),
+            chan_bufs: Vec::new(),
             interf: vec![C32::default(); nslots * ns],
             interf_active: vec![false; nslots],
             interf_rx: vec![C32::new(1.0, 0.0); nrx],
@@ -1041,6 +1044,10 @@ impl RadarChain {
         let quad = self.quad_spreading();
         let mut cube_re = std::mem::take(&mut self.cube_re);
         let mut cube_im = std::mem::take(&mut self.cube_im);
+        let workers = rayon::current_num_threads().max(1);
+        if self.chan_bufs.len() < workers {
+            self.chan_bufs.resize_with(workers, Default::default);
+        }
         let dop = DisjointMut::new(&mut self.dop);
         let this = &*self;
         let (sl_re, sl_im, ck_re, ck_im) = (
@@ -1050,6 +1057,7 @@ impl RadarChain {
             &this.ck_im[..],
         );
         let slot4 = &this.slot4[..];
+        let chan_bufs = &this.chan_bufs[..];
         let sigma = (0.5 * this.noise_var_w).sqrt() as f32;
         let tdm = this.tdm;
         let (interf, interf_active, interf_rx) = (
@@ -1076,153 +1084,144 @@ impl RadarChain {
             .par_chunks_mut(chunk)
             .zip(cube_im.par_chunks_mut(chunk))
             .enumerate()
-            .for_each_init(
-                || ChannelBufs {
-                    scratch: vec![C32::default(); scratch_len],
-                    grid: vec![C32::default(); if quad { 4 } else { 1 } * (m_grid + NUFFT_W)],
-                    grid4: if quad {
-                        vec![Quad::default(); m_grid + NUFFT_W]
-                    } else {
-                        Vec::new()
-                    },
-                    cbuf: vec![0f32; 2 * np],
-                    spec: vec![C32::default(); chunk],
-                    rows: vec![C32::default(); DOPPLER_BINS_PER_TASK * nc],
-                    tre: vec![0f32; ns],
-                    tim: vec![0f32; ns],
-                    noise4: vec![[0f32; 4]; if quad { 2 * ns } else { 0 }],
-                },
-                |bufs, (k, (cre, cim))| {
-                    let ChannelBufs {
-                        scratch,
-                        grid,
-                        grid4,
-                        cbuf,
-                        spec: sp,
-                        rows,
-                        tre,
-                        tim,
-                        noise4,
-                    } = bufs;
-                    let slot_of = |m: usize| if tdm { m * ntx + k / nrx } else { m };
-                    let cr = &ck_re[k * np..(k + 1) * np];
-                    let ci = &ck_im[k * np..(k + 1) * np];
-                    // Chirp m's samples (in `re`, `im`) → noise, interference, compression → the
-                    // cube, and windowed into the channel's range spectra (FFT below).
-                    // The noise: the cell's stream `SmallRng::seed_from_u64(cell_seed(cell))` of
-                    // `StandardNormal` deviates, (re, im) per sample; drawn here, or four cells'
-                    // at once into `noise4` (lane c: chirp m + c of the group).
-                    let cell_seed = |m: usize| splitmix64(seed ^ splitmix64((k * nc + m) as u64));
-                    let mut finish =
-                        |m: usize,
-                         re: &mut [f32],
-                         im: &mut [f32],
-                         lane: Option<(&[[f32; 4]], usize)>| {
-                            if let Some((noise4, c)) = lane {
-                                for ((r, i), z) in
-                                    re.iter_mut().zip(im.iter_mut()).zip(noise4.chunks_exact(2))
+            .for_each(|(k, (cre, cim))| {
+                // This worker's buffers (kept across frames: the channel's range spectra
+                // alone are 256 kB, which the allocator would map and unmap per task).
+                let slot = rayon::current_thread_index().unwrap_or(0) % chan_bufs.len();
+                let mut guard = chan_bufs[slot].lock().unwrap_or_else(|e| e.into_inner());
+                let bufs = &mut *guard;
+                let grids = if quad { 4 } else { 1 } * (m_grid + NUFFT_W);
+                bufs.scratch.resize(scratch_len, C32::default());
+                bufs.grid.resize(grids, C32::default());
+                bufs.grid4
+                    .resize(if quad { m_grid + NUFFT_W } else { 0 }, Quad::default());
+                bufs.cbuf.resize(2 * np, 0.0);
+                bufs.spec.resize(chunk, C32::default());
+                bufs.rows.resize(DOPPLER_BINS_PER_TASK * nc, C32::default());
+                bufs.tre.resize(ns, 0.0);
+                bufs.tim.resize(ns, 0.0);
+                bufs.noise4.resize(if quad { 2 * ns } else { 0 }, [0.0; 4]);
+                let ChannelBufs {
+                    scratch,
+                    grid,
+                    grid4,
+                    cbuf,
+                    spec: sp,
+                    rows,
+                    tre,
+                    tim,
+                    noise4,
+                } = bufs;
+                let slot_of = |m: usize| if tdm { m * ntx + k / nrx } else { m };
+                let cr = &ck_re[k * np..(k + 1) * np];
+                let ci = &ck_im[k * np..(k + 1) * np];
+                // Chirp m's samples (in `re`, `im`) → noise, interference, compression → the
+                // cube, and windowed into the channel's range spectra (FFT below).
+                // The noise: the cell's stream `SmallRng::seed_from_u64(cell_seed(cell))` of
+                // `StandardNormal` deviates, (re, im) per sample; drawn here, or four cells'
+                // at once into `noise4` (lane c: chirp m + c of the group).
+                let cell_seed = |m: usize| splitmix64(seed ^ splitmix64((k * nc + m) as u64));
+                let mut finish =
+                    |m: usize,
+                     re: &mut [f32],
+                     im: &mut [f32],
+                     lane: Option<(&[[f32; 4]], usize)>| {
+                        if let Some((noise4, c)) = lane {
+                            for ((r, i), z) in
+                                re.iter_mut().zip(im.iter_mut()).zip(noise4.chunks_exact(2))
+                            {
+                                *r += sigma * z[0][c];
+                                *i += sigma * z[1][c];
+                            }
+                        } else {
+                            let mut rng = SmallRng::seed_from_u64(cell_seed(m));
+                            for (r, i) in re.iter_mut().zip(im.iter_mut()) {
+                                // `rng.sample::<f32, _>(StandardNormal)`, inlined.
+                                let nr = standard_normal(&mut rng) as f32;
+                                let ni = standard_normal(&mut rng) as f32;
+                                *r += sigma * nr;
+                                *i += sigma * ni;
+                            }
+                        }
+                        if interf_on {
+                            let slot = slot_of(m);
+                            if interf_active[slot] {
+                                let rxp = interf_rx[k % nrx];
+                                for (n, v) in interf[slot * ns..(slot + 1) * ns].iter().enumerate()
                                 {
-                                    *r += sigma * z[0][c];
-                                    *i += sigma * z[1][c];
-                                }
-                            } else {
-                                let mut rng = SmallRng::seed_from_u64(cell_seed(m));
-                                for (r, i) in re.iter_mut().zip(im.iter_mut()) {
-                                    // `rng.sample::<f32, _>(StandardNormal)`, inlined.
-                                    let nr = standard_normal(&mut rng) as f32;
-                                    let ni = standard_normal(&mut rng) as f32;
-                                    *r += sigma * nr;
-                                    *i += sigma * ni;
+                                    let x = v * rxp;
+                                    re[n] += x.re;
+                                    im[n] += x.im;
                                 }
                             }
-                            if interf_on {
-                                let slot = slot_of(m);
-                                if interf_active[slot] {
-                                    let rxp = interf_rx[k % nrx];
-                                    for (n, v) in
-                                        interf[slot * ns..(slot + 1) * ns].iter().enumerate()
-                                    {
-                                        let x = v * rxp;
-                                        re[n] += x.re;
-                                        im[n] += x.im;
-                                    }
-                                }
-                            }
-                            if let Some((a_sat, p, full)) = compression {
-                                compress(re, im, a_sat, p, full);
-                            }
-                            // The cube is not read again this frame: streaming stores.
-                            stream_copy(&mut cre[m * ns..(m + 1) * ns], re);
-                            stream_copy(&mut cim[m * ns..(m + 1) * ns], im);
-                            let row = &mut sp[m * ns..(m + 1) * ns];
-                            for n in 0..ns {
-                                row[n] = C32::new(re[n] * range_win[n], im[n] * range_win[n]);
-                            }
-                        };
-                    // Type-1 NUFFT per cell: spread C_p = slot_p · ck_p with the ES kernel onto
-                    // the oversampled grid, inverse FFT, deconvolve.
-                    let mut m = 0;
-                    while m < nc {
-                        if np == 0 {
-                            tre.fill(0.0);
-                            tim.fill(0.0);
-                            finish(m, tre, tim, None);
-                            m += 1;
-                            continue;
                         }
-                        if quad {
-                            // Four chirps at once (same channel, slots of one `slot4` row).
-                            let t = if tdm { k / nrx } else { 0 };
-                            let row = (t * (nc / 4) + m / 4) * np;
-                            grid4.fill(Quad::default());
-                            spread_quad(
-                                grid4,
-                                &slot4[row..row + np],
-                                cr,
-                                ci,
-                                spread_base,
-                                spread_w8,
-                            );
-                            split_quad(grid4, grid);
-                            NormalQuad::seed_from_u64([0, 1, 2, 3].map(|c| cell_seed(m + c)))
-                                .fill(noise4);
-                            for (c, grid) in grid.chunks_exact_mut(m_grid + NUFFT_W).enumerate() {
-                                nufft_finish(grid, m_grid, &*grid_fft, scratch, corr, tre, tim);
-                                finish(m + c, tre, tim, Some((noise4, c)));
-                            }
-                            m += 4;
-                            continue;
+                        if let Some((a_sat, p, full)) = compression {
+                            compress(re, im, a_sat, p, full);
                         }
-                        let slot = slot_of(m);
-                        let adr = &sl_re[slot * np..(slot + 1) * np];
-                        let adi = &sl_im[slot * np..(slot + 1) * np];
-                        let grid = &mut grid[..m_grid + NUFFT_W];
-                        grid.fill(C32::default());
-                        spread_cell(simd, grid, [adr, adi, cr, ci], spread_base, spread_w, cbuf);
-                        nufft_finish(grid, m_grid, &*grid_fft, scratch, corr, tre, tim);
+                        // The cube is not read again this frame: streaming stores.
+                        stream_copy(&mut cre[m * ns..(m + 1) * ns], re);
+                        stream_copy(&mut cim[m * ns..(m + 1) * ns], im);
+                        let row = &mut sp[m * ns..(m + 1) * ns];
+                        for n in 0..ns {
+                            row[n] = C32::new(re[n] * range_win[n], im[n] * range_win[n]);
+                        }
+                    };
+                // Type-1 NUFFT per cell: spread C_p = slot_p · ck_p with the ES kernel onto
+                // the oversampled grid, inverse FFT, deconvolve.
+                let mut m = 0;
+                while m < nc {
+                    if np == 0 {
+                        tre.fill(0.0);
+                        tim.fill(0.0);
                         finish(m, tre, tim, None);
                         m += 1;
+                        continue;
                     }
-                    fft.process_with_scratch(sp, scratch);
-                    // Doppler FFTs of this channel, blocks of DOPPLER_BINS_PER_TASK range bins
-                    // (the gather across the chirps reads each cache line once), into the
-                    // `[range][channel][Doppler]` cube.
-                    for n0 in (0..ns).step_by(DOPPLER_BINS_PER_TASK) {
-                        let nb = DOPPLER_BINS_PER_TASK.min(ns - n0);
-                        let rows = &mut rows[..nb * nc];
-                        gather_doppler(rows, sp, ns, n0, doppler_win);
-                        fft_doppler.process_with_scratch(rows, scratch);
-                        for (b, row) in rows.chunks_exact(nc).enumerate() {
-                            // SAFETY: task k writes only the elements (n · N_k + k) · N_c + d of
-                            // channel k: no two tasks write the same element, and nothing reads
-                            // `dop` during the loop.
-                            let dst = unsafe { dop.slice(((n0 + b) * nk + k) * nc, nc) };
-                            stream_copy(c32_as_f32_mut(dst), c32_as_f32(row));
+                    if quad {
+                        // Four chirps at once (same channel, slots of one `slot4` row).
+                        let t = if tdm { k / nrx } else { 0 };
+                        let row = (t * (nc / 4) + m / 4) * np;
+                        grid4.fill(Quad::default());
+                        spread_quad(grid4, &slot4[row..row + np], cr, ci, spread_base, spread_w8);
+                        split_quad(grid4, grid);
+                        NormalQuad::seed_from_u64([0, 1, 2, 3].map(|c| cell_seed(m + c)))
+                            .fill(noise4);
+                        for (c, grid) in grid.chunks_exact_mut(m_grid + NUFFT_W).enumerate() {
+                            nufft_finish(grid, m_grid, &*grid_fft, scratch, corr, tre, tim);
+                            finish(m + c, tre, tim, Some((noise4, c)));
                         }
+                        m += 4;
+                        continue;
                     }
-                    stream_fence();
-                },
-            );
+                    let slot = slot_of(m);
+                    let adr = &sl_re[slot * np..(slot + 1) * np];
+                    let adi = &sl_im[slot * np..(slot + 1) * np];
+                    let grid = &mut grid[..m_grid + NUFFT_W];
+                    grid.fill(C32::default());
+                    spread_cell(simd, grid, [adr, adi, cr, ci], spread_base, spread_w, cbuf);
+                    nufft_finish(grid, m_grid, &*grid_fft, scratch, corr, tre, tim);
+                    finish(m, tre, tim, None);
+                    m += 1;
+                }
+                fft.process_with_scratch(sp, scratch);
+                // Doppler FFTs of this channel, blocks of DOPPLER_BINS_PER_TASK range bins
+                // (the gather across the chirps reads each cache line once), into the
+                // `[range][channel][Doppler]` cube.
+                for n0 in (0..ns).step_by(DOPPLER_BINS_PER_TASK) {
+                    let nb = DOPPLER_BINS_PER_TASK.min(ns - n0);
+                    let rows = &mut rows[..nb * nc];
+                    gather_doppler(rows, sp, ns, n0, doppler_win);
+                    fft_doppler.process_with_scratch(rows, scratch);
+                    for (b, row) in rows.chunks_exact(nc).enumerate() {
+                        // SAFETY: task k writes only the elements (n · N_k + k) · N_c + d of
+                        // channel k: no two tasks write the same element, and nothing reads
+                        // `dop` during the loop.
+                        let dst = unsafe { dop.slice(((n0 + b) * nk + k) * nc, nc) };
+                        stream_copy(c32_as_f32_mut(dst), c32_as_f32(row));
+                    }
+                }
+                stream_fence();
+            });
         self.cube_re = cube_re;
         self.cube_im = cube_im;
     }
@@ -1271,7 +1270,8 @@ impl RadarChain {
     }
 }
 
-/// Per-task buffers of the synthesis.
+/// Per-worker buffers of the synthesis.
+#[derive(Debug, Default)]
 struct ChannelBufs {
     scratch: Vec<C32>,
     /// One cell's NUFFT grid (with the kernel's wrap-around tail); four of them with the
