@@ -3,8 +3,8 @@ report at the end.
 
 Layout of the output folder DIR:
 
-* ``runs/<hash>/result.json``: one variant (parameters, status, error, attempts, wall time, result
-  rows, error samples), written to a temporary folder and renamed into place when the variant
+* ``runs/<hash>/result.json``: one variant (parameters, status, error, attempts and the worker of
+  each, wall time, result rows, error samples), written to a temporary folder and renamed into place when the variant
   completes; a re-run of the same spec into DIR skips every variant whose result is ``ok``;
 * ``runs/<hash>/scenario.json``: the variant's scenario;
 * ``results.parquet``, ``results.csv``: one row per (variant, sensor, ground-truth object, range
@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import socket
 import sys
 import time
 import uuid
@@ -27,6 +28,11 @@ from . import aggregate, runner
 from .spec import Spec, SpecError, Variant, resolve_variants
 
 RESULT = "result.json"
+# Each execution of a variant task announces itself on this event topic before it runs, so that the
+# client counts executions as they happen: a re-run after a worker died mid-task, and also a re-run
+# of a finished task whose result died with its worker before it was fetched (which the scheduler's
+# own retry counters do not see).
+ATTEMPT_TOPIC = "osiris-sweep-attempt"
 
 
 class Progress:
@@ -95,13 +101,29 @@ def store_result(runs_dir: Path, v: Variant, record: dict) -> None:
         os.rename(tmp, final)
 
 
-def _attempts_on_scheduler(dask_scheduler, keys):
-    out = {}
-    for k in keys:
-        ts = dask_scheduler.tasks.get(k)
-        if ts is not None:
-            out[k] = (ts.retries, ts.suspicious)
-    return out
+def _run_announced(key: str, payload: dict, osiris: str, range_bins_m: list[float]) -> dict:
+    """The Dask task: announce this execution of `key` (worker host and pid), then run the variant."""
+    from distributed import get_worker
+
+    get_worker().log_event(ATTEMPT_TOPIC, {"key": key, "process": f"{socket.gethostname()}:{os.getpid()}"})
+    return runner.run_variant(payload, osiris, range_bins_m)
+
+
+class AttemptLog:
+    """Executions per task key, each as the "host:pid" of the worker process that ran it, from the
+    announcements the tasks publish (kept on the client: unbounded, unlike the scheduler's log)."""
+
+    def __init__(self):
+        self.workers: dict[str, list[str]] = {}
+
+    def __call__(self, event):
+        _, msg = event
+        if isinstance(msg, dict) and "key" in msg:
+            # "worker" (the worker's address) is added by the scheduler
+            self.workers.setdefault(msg["key"], []).append(str(msg.get("process", msg.get("worker", "?"))))
+
+    def of(self, key: str) -> list[str]:
+        return list(self.workers.get(key, []))
 
 
 def _make_cluster(workers: int):
@@ -179,38 +201,40 @@ def run_sweep(
                 run_fmu_dir = found
         cluster = None if scheduler else _make_cluster(workers)
         client = Client(scheduler if scheduler else cluster)
+        attempt_log = AttemptLog()
+        client.subscribe_topic(ATTEMPT_TOPIC, attempt_log)
         try:
             by_key = {}
             futures = []
             for v in pending:
                 key = f"osiris-variant-{v.hash}-{uuid.uuid4().hex[:6]}"
                 fut = client.submit(
-                    runner.run_variant, variant_payload(v, defaults, run_fmu_dir), osiris, spec.range_bins_m,
+                    _run_announced, key, variant_payload(v, defaults, run_fmu_dir), osiris, spec.range_bins_m,
                     key=key, retries=1, pure=False,
                 )
                 by_key[fut.key] = v
                 futures.append(fut)
             for fut in as_completed(futures):
                 v = by_key[fut.key]
-                info = client.run_on_scheduler(_attempts_on_scheduler, keys=[fut.key]).get(fut.key, (0, 0))
-                retries_left, deaths = info
+                # An announcement lost with a worker killed within milliseconds of the task's start
+                # leaves the count short; a finished or failed task ran at least once.
+                workers = attempt_log.of(fut.key)
                 record = {
                     "hash": v.hash, "params": v.params, "sensors": v.sensors,
                     "fmu_params": v.fmu_params, "config": v.config,
                 }
                 if fut.status == "finished":
                     res = fut.result()
-                    attempts = 1 + (1 - retries_left) + deaths
-                    record.update(status="ok", error="", attempts=attempts, wall_s=res["wall_s"],
-                                  osiris_wall_s=res["osiris_wall_s"], rows=res["rows"],
+                    record.update(status="ok", error="", attempts=max(len(workers), 1), workers=workers,
+                                  wall_s=res["wall_s"], osiris_wall_s=res["osiris_wall_s"], rows=res["rows"],
                                   errors=res["errors"], host=res["host"])
                 else:
                     exc = fut.exception()
                     killed = type(exc).__name__ == "KilledWorker"
-                    attempts = (1 - retries_left) + deaths + (0 if killed else 1)
                     msg = f"{type(exc).__name__}: {exc}" if not isinstance(exc, runner.RunFailed) else str(exc)
-                    record.update(status="failed", error=msg, attempts=attempts, wall_s=None,
-                                  osiris_wall_s=None, rows=[], errors={}, host=None)
+                    record.update(status="failed", error=msg,
+                                  attempts=len(workers) if killed else max(len(workers), 1), workers=workers,
+                                  wall_s=None, osiris_wall_s=None, rows=[], errors={}, host=None)
                 store_result(runs_dir, v, record)
                 done[v.hash] = record
                 fut.release()
