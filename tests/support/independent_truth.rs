@@ -2589,6 +2589,9 @@ pub enum CameraCase {
     PitchMisalignment,
     /// The camera's clock is 40–80 ms (either sign) off the ground truth's; cars cross.
     TimeOffset,
+    /// The measuring camera looks through a windshield (28° rake, 4.96 mm, n = 1.52, 0.10 m ahead)
+    /// whose faces meet at a 1–2 mrad wedge, thicker at the top; the model sees no glass.
+    Windshield,
 }
 
 impl CameraCase {
@@ -2598,6 +2601,7 @@ impl CameraCase {
             CameraCase::YawMisalignment => "yaw_misalignment",
             CameraCase::PitchMisalignment => "pitch_misalignment",
             CameraCase::TimeOffset => "time_offset",
+            CameraCase::Windshield => "windshield",
         }
     }
 }
@@ -2622,6 +2626,17 @@ fn angular_box(
     c: DVec3,
     yaw: f64,
 ) -> ((f64, f64), (f64, f64), f64) {
+    angular_box_through(sensor, axes, c, yaw, None)
+}
+
+/// [`angular_box`] seen through the generator's windshield `glass` (when given).
+fn angular_box_through(
+    sensor: DVec3,
+    axes: glam::DMat3,
+    c: DVec3,
+    yaw: f64,
+    glass: Option<&GenWindshield>,
+) -> ((f64, f64), (f64, f64), f64) {
     let (s, co) = yaw.sin_cos();
     let (mut az0, mut az1, mut el0, mut el1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
     for i in 0..8 {
@@ -2631,7 +2646,10 @@ fn angular_box(
             if i & 4 == 0 { -0.5 } else { 0.5 } * CAR_DIMS.z,
         );
         let g = c + DVec3::new(co * l.x - s * l.y, s * l.x + co * l.y, l.z);
-        let p = axes.transpose() * (g - sensor);
+        let mut p = axes.transpose() * (g - sensor);
+        if let Some(w) = glass {
+            p = w.seen(p);
+        }
         let az = p.y.atan2(p.x);
         let el = p.z.atan2(p.x.hypot(p.y));
         az0 = az0.min(az);
@@ -2641,6 +2659,65 @@ fn angular_box(
     }
     let centre = axes.transpose() * (c - sensor);
     ((az0, el0), (az1, el1), centre.length())
+}
+
+/// The generator's own windshield (independent of the model's code): a glass of index `n`
+/// between two planes in the camera frame (x forward, z up), the inner one through
+/// (`dist_m`, 0, 0) inclined `incl_deg` above the horizontal, the outer one `thick_m` further along
+/// the inner normal and turned by `wedge_rad` about y (thicker towards the top).
+#[derive(Debug, Clone, Copy)]
+pub struct GenWindshield {
+    pub incl_deg: f64,
+    pub dist_m: f64,
+    pub thick_m: f64,
+    pub n: f64,
+    pub wedge_rad: f64,
+}
+
+impl GenWindshield {
+    /// The glass of the windshield case with a wedge of `wedge_rad`.
+    pub fn raked(wedge_rad: f64) -> GenWindshield {
+        GenWindshield {
+            incl_deg: 28.0,
+            dist_m: 0.10,
+            thick_m: 4.96e-3,
+            n: 1.52,
+            wedge_rad,
+        }
+    }
+
+    /// A camera ray along the unit `d` after the glass: (a point on it, its direction). Snell at
+    /// each face: the tangential component scales by the index ratio, the normal one fills the
+    /// unit length.
+    fn trace(&self, d: DVec3) -> (DVec3, DVec3) {
+        let a = self.incl_deg.to_radians();
+        let n1 = DVec3::new(a.sin(), 0.0, a.cos());
+        // The outer normal: n1 turned about y by the wedge, towards the glass's downward direction
+        // (cos α, 0, −sin α): the faces part going up the glass.
+        let (sw, cw) = self.wedge_rad.sin_cos();
+        let n2 = DVec3::new(n1.x * cw + n1.z * sw, 0.0, n1.z * cw - n1.x * sw);
+        let cross = |d: DVec3, nrm: DVec3, ratio: f64| {
+            let tang = (d - nrm * d.dot(nrm)) * ratio;
+            tang + nrm * (1.0 - tang.length_squared()).sqrt()
+        };
+        let q1 = DVec3::new(self.dist_m, 0.0, 0.0);
+        let p_in = d * (q1.dot(n1) / d.dot(n1));
+        let inside = cross(d, n1, 1.0 / self.n);
+        let q2 = q1 + n1 * self.thick_m;
+        let p_out = p_in + inside * ((q2 - p_in).dot(n2) / inside.dot(n2));
+        (p_out, cross(inside, n2, self.n))
+    }
+
+    /// The camera ray that sees the point `p` (camera frame) through the glass: the direction
+    /// `d` whose traced ray passes through `p`, by fixed-point iteration.
+    pub fn seen(&self, p: DVec3) -> DVec3 {
+        let mut d = p.normalize();
+        for _ in 0..30 {
+            let (o, out) = self.trace(d);
+            d = (d + (p - o).normalize() - out).normalize();
+        }
+        d
+    }
 }
 
 fn camera_detection(
@@ -2712,7 +2789,16 @@ pub fn camera_campaign(case: CameraCase, seed: u64, dir: &Path) -> anyhow::Resul
             0.0,
         ),
         CameraCase::TimeOffset => (0.0, 0.0, sign(&mut rng) * rng.range(0.04, 0.08)),
-        CameraCase::Null => (0.0, 0.0, 0.0),
+        CameraCase::Null | CameraCase::Windshield => (0.0, 0.0, 0.0),
+    };
+    let glass =
+        (case == CameraCase::Windshield).then(|| GenWindshield::raked(rng.range(1.0e-3, 2.0e-3)));
+    // A windshield campaign is a calibration-grade one: its elevation tolerance is the box
+    // centre's noise (0.05°), a quarter of the others'.
+    let (tol_az, tol_el) = if glass.is_some() {
+        (0.2, 0.05)
+    } else {
+        (0.2, 0.2)
     };
     // The true camera axes: yaw about the vertical, then pitch about the new y (OSI: positive
     // pitch turns +x down).
@@ -2765,7 +2851,13 @@ pub fn camera_campaign(case: CameraCase, seed: u64, dir: &Path) -> anyhow::Resul
                 let sk = s_dets.len();
                 s_dets.push(camera_detection(sk, Some(id), sim_box));
                 // The measuring camera: the car where it is `clock_s` later, from its true axes.
-                let (lo, hi, rr) = angular_box(sensor, true_axes, c_true + v * clock_s, yaw);
+                let (lo, hi, rr) = angular_box_through(
+                    sensor,
+                    true_axes,
+                    c_true + v * clock_s,
+                    yaw,
+                    glass.as_ref(),
+                );
                 let n = |rng: &mut Rng| CAMERA_EDGE_NOISE_DEG.to_radians() * rng.normal();
                 let noisy = (
                     (lo.0 + n(&mut rng), lo.1 + n(&mut rng)),
@@ -2810,8 +2902,8 @@ gt_position_sigma_m = {pos_sigma}
 method = "gating"
 
 [tolerance]
-azimuth_deg = 0.2
-elevation_deg = 0.2
+azimuth_deg = {tol_az}
+elevation_deg = {tol_el}
 
 [bins]
 explanatory = ["range", "azimuth"]
@@ -2846,6 +2938,7 @@ kind = "car"
             CameraCase::YawMisalignment => Some(yaw_true.to_degrees()),
             CameraCase::PitchMisalignment => Some(pitch_true.to_degrees()),
             CameraCase::TimeOffset => Some(1e3 * clock_s),
+            CameraCase::Windshield => glass.map(|g| 1e3 * g.wedge_rad),
             CameraCase::Null => None,
         },
         frames: frame as usize,

@@ -447,7 +447,13 @@ impl Physics for CameraPhysics {
         let t = std::time::Instant::now();
         let rin = RenderInput {
             frame,
-            rays: chain.lens.ray_directions(),
+            // The windshield's refraction turns the rays where its faces are not parallel.
+            rays: chain
+                .windshield
+                .as_ref()
+                .map(|p| p.directions.as_slice())
+                .filter(|d| d.len() == chain.lens.ray_directions().len())
+                .unwrap_or(chain.lens.ray_directions()),
             ray_origins: chain
                 .windshield
                 .as_ref()

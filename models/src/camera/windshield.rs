@@ -16,10 +16,15 @@
 //!   of index `refractive_index` and thickness `thickness_mm` with the internal transmittance
 //!   `internal_transmittance` at normal incidence (`τ(θ) = τ_n^{1/cos θt}`), incoherent multiple
 //!   reflections ([`crate::environment::material::dielectric_slab`]).
-//! * `camera.windshield_refraction`: the ray leaves the slab parallel to itself, displaced by
-//!   `Δ = t·sin(θ − θt)/cos θt` (Snell: sin θ = n sin θt) in the plane of incidence; the renderer
-//!   starts it from the virtual origin `o = P₁ − (P₁·d)d` (P₁ the exit point), so near objects
-//!   shift in the image by ≈ Δ/R and far ones not at all.
+//! * `camera.windshield_refraction`: Snell's law at both faces. With parallel faces the ray leaves
+//!   the slab parallel to itself, displaced by `Δ = t·sin(θ − θt)/cos θt` (sin θ = n sin θt) in the
+//!   plane of incidence, so near objects shift in the image by ≈ Δ/R and far ones not at all. A
+//!   wedge (`wedge_mrad`: the outer face turned about the sensor's y axis, the laminate thicker
+//!   towards the top of the glass for a positive wedge, as in head-up-display windshields) also
+//!   turns the ray, by `δ ≈ w·(√(n² − sin²θ)/cos θ − 1)` in the plane of incidence (a thin prism at
+//!   oblique incidence): every object moves by about the same angle, and more where the glass is
+//!   seen more obliquely. The renderer traces each pixel from the virtual origin
+//!   `o = P₁ − (P₁·d')d'` (P₁ the exit point) along the exit direction `d'`.
 //! * `camera.dashboard_reflection`: the inner face reflects the dashboard (a Lambertian plane of
 //!   reflectance `dashboard_reflectance` below the glass, normal +z) into every pixel whose mirror
 //!   ray `d − 2(d·n)n` points down: `L ← L + R(θ)·L_dash`, `L_dash = ρ_d/π·E_dash`, with the
@@ -48,8 +53,8 @@ pub const WINDSHIELD_TRANSMISSION: EffectInfo = EffectInfo {
 pub const WINDSHIELD_REFRACTION: EffectInfo = EffectInfo {
     name: "camera.windshield_refraction",
     default_on: true,
-    summary: "windshield refraction: each ray leaves the tilted slab parallel to itself, displaced by t·sin(θ − θt)/cos θt (Snell), so near objects shift in the image by ≈ Δ/R; acts only with a configured windshield",
-    source: "plane-parallel plate displacement (Hecht, Optics, 5th ed., §5.2; physics.md §3.5)",
+    summary: "windshield refraction: Snell at both faces of the tilted laminate; parallel faces displace each ray by t·sin(θ − θt)/cos θt (near objects shift by ≈ Δ/R), a wedge w between them turns it by ≈ w·(√(n² − sin²θ)/cos θ − 1); acts only with a configured windshield",
+    source: "plane-parallel plate displacement (Hecht, Optics, 5th ed., §5.2) and the thin prism at oblique incidence (§5.5.1); physics.md §3.5",
     requires: None,
 };
 
@@ -87,6 +92,10 @@ pub struct WindshieldConfig {
     pub internal_transmittance: f64,
     /// Diffuse reflectance of the dashboard (a dark grey plastic, GUESSED 0.05).
     pub dashboard_reflectance: f64,
+    /// Wedge angle between the two faces, mrad (positive: thicker towards the top of the glass).
+    /// 0: plane-parallel. Head-up-display windshields carry a wedge of ≈ 0.3–0.7 mrad; thickness
+    /// variation and curvature of an ordinary laminate act as a local wedge of the same order.
+    pub wedge_mrad: f64,
 }
 
 impl Default for WindshieldConfig {
@@ -98,6 +107,7 @@ impl Default for WindshieldConfig {
             refractive_index: 1.52,
             internal_transmittance: 0.88,
             dashboard_reflectance: 0.05,
+            wedge_mrad: 0.0,
         }
     }
 }
@@ -124,6 +134,7 @@ impl WindshieldConfig {
                 0.0,
                 1.0,
             ),
+            ("wedge_mrad", self.wedge_mrad, -20.0, 20.0),
         ] {
             if !(v.is_finite() && (lo..=hi).contains(&v)) {
                 return err(k, format!("must be in [{lo}, {hi}], got {v}"));
@@ -153,25 +164,64 @@ impl WindshieldConfig {
         (s.transmittance, s.reflectance)
     }
 
-    /// Where a ray from the origin along the unit `d` leaves the slab, and its virtual origin
-    /// (the exit point minus its component along `d`: the displacement, ⟂ d). `None` when the ray
-    /// does not meet the glass ahead.
-    pub fn refract(&self, d: DVec3) -> Option<(DVec3, DVec3)> {
+    /// Unit normal of the outer face: the inner face's normal turned by the wedge about the
+    /// sensor's y axis, `n − w·u` normalised (u = (−cos α, 0, sin α), up the glass).
+    pub fn outer_normal(&self) -> DVec3 {
+        let a = self.inclination_deg.to_radians();
+        let up = DVec3::new(-a.cos(), 0.0, a.sin());
+        (self.normal() - self.wedge_mrad * 1e-3 * up).normalize()
+    }
+
+    /// A ray from the origin along the unit `d` through the glass: its exit point P₁, its exit
+    /// direction d' (unit; = d for parallel faces) and its virtual origin `P₁ − (P₁·d')d'` (the
+    /// displacement, ⟂ d'). `None` when the ray does not meet the glass ahead or is totally
+    /// reflected at the outer face.
+    pub fn refract(&self, d: DVec3) -> Option<Refracted> {
         let n = self.normal();
         let c = d.dot(n);
         if c <= 1e-9 {
             return None;
         }
         // Entry: the plane n·p = n·(distance, 0, 0).
-        let s = self.distance_m * n.x / c;
-        let p0 = d * s;
-        // Snell in vector form (η = 1/n_glass, n along the propagation).
-        let eta = 1.0 / self.refractive_index;
-        let cos_t = (1.0 - eta * eta * (1.0 - c * c)).max(0.0).sqrt();
-        let dt = eta * (d - c * n) + cos_t * n;
-        let p1 = p0 + dt * (self.thickness_mm * 1e-3 / cos_t);
-        Some((p1, p1 - d * p1.dot(d)))
+        let q = DVec3::new(self.distance_m, 0.0, 0.0);
+        let p0 = d * (q.dot(n) / c);
+        let ng = self.refractive_index;
+        let dt = snell(d, n, 1.0 / ng)?;
+        // Exit: the outer face through q + t·n (the thickness on the optical axis).
+        let n2 = self.outer_normal();
+        let q2 = q + n * (self.thickness_mm * 1e-3);
+        let c2 = dt.dot(n2);
+        if c2 <= 1e-9 {
+            return None;
+        }
+        let p1 = p0 + dt * ((q2 - p0).dot(n2) / c2);
+        let out = snell(dt, n2, ng)?;
+        Some(Refracted {
+            exit: p1,
+            direction: out,
+            origin: p1 - out * p1.dot(out),
+        })
     }
+}
+
+/// A pixel ray after the windshield ([`WindshieldConfig::refract`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Refracted {
+    /// Where the ray leaves the outer face, sensor frame, m.
+    pub exit: DVec3,
+    /// The exit direction, unit.
+    pub direction: DVec3,
+    /// The virtual origin: the exit point less its component along `direction`, m.
+    pub origin: DVec3,
+}
+
+/// Snell's law in vector form: the unit direction `d` crossing a face of unit normal `n`
+/// (`d·n > 0`, n along the propagation) with the index ratio `eta` = n_from / n_to. `None`:
+/// total internal reflection.
+fn snell(d: DVec3, n: DVec3, eta: f64) -> Option<DVec3> {
+    let c = d.dot(n);
+    let k = 1.0 - eta * eta * (1.0 - c * c);
+    (k >= 0.0).then(|| (eta * (d - c * n) + k.sqrt() * n).normalize())
 }
 
 /// What a windshield does to each pixel, planned once for the lens's rays.
@@ -184,6 +234,9 @@ pub struct WindshieldPlan {
     pub dashboard_reflectance: Vec<f32>,
     /// Per pixel: ray origins in the sensor frame (empty without `camera.windshield_refraction`).
     pub origins: Vec<Vec3>,
+    /// Per pixel: ray directions after the glass, unit, sensor frame (empty without
+    /// `camera.windshield_refraction`; equal to the lens rays for parallel faces).
+    pub directions: Vec<Vec3>,
     /// Transmittance of the sunlight and skylight reaching the dashboard.
     config: WindshieldConfig,
 }
@@ -220,8 +273,11 @@ impl WindshieldPlan {
                     0.0
                 });
             if refraction {
-                let o = config.refract(d).map_or(DVec3::ZERO, |(_, o)| o);
+                let (o, dir) = config
+                    .refract(d)
+                    .map_or((DVec3::ZERO, d), |r| (r.origin, r.direction));
                 plan.origins.push(o.as_vec3());
+                plan.directions.push(dir.as_vec3());
             }
         }
         plan
@@ -257,7 +313,12 @@ mod tests {
             DVec3::new(1.0, 0.3, 0.1).normalize(),
             DVec3::new(1.0, -0.2, -0.2).normalize(),
         ] {
-            let (_, o) = c.refract(d).unwrap();
+            let r = c.refract(d).unwrap();
+            let o = r.origin;
+            assert!(
+                (r.direction - d).length() < 1e-12,
+                "parallel faces keep the direction"
+            );
             let cos = d.dot(n);
             let th = cos.acos();
             let tt = (th.sin() / c.refractive_index).asin();
@@ -269,6 +330,47 @@ mod tests {
             );
             assert!(o.dot(d).abs() < 1e-12);
         }
+    }
+
+    /// A wedge turns a ray in the vertical plane by the two-face Snell chain, written here with
+    /// angles (elevation ψ above the horizontal; the inner normal at 90° − α, the outer one turned
+    /// down by atan w), and by the thin-prism approximation w·(√(n² − sin²θ)/cos θ − 1).
+    #[test]
+    fn wedge_deviation_matches_snell_at_both_faces() {
+        let c = WindshieldConfig {
+            wedge_mrad: 1.0,
+            ..WindshieldConfig::default()
+        };
+        let ng = c.refractive_index;
+        let w = 1e-3f64;
+        let psi_n = (90.0 - c.inclination_deg).to_radians();
+        let psi_n2 = psi_n - w.atan();
+        for e_deg in [-8.0f64, -3.0, 0.0, 4.0, 9.0] {
+            let e = e_deg.to_radians();
+            let th1 = psi_n - e;
+            let tht = (th1.sin() / ng).asin();
+            let psi_t = psi_n - tht;
+            let th2 = psi_n2 - psi_t;
+            let th3 = (ng * th2.sin()).asin();
+            let psi_out = psi_n2 - th3;
+            let want = psi_out - e;
+            let d = DVec3::new(e.cos(), 0.0, e.sin());
+            let r = c.refract(d).unwrap();
+            let got = r.direction.z.atan2(r.direction.x) - e;
+            assert!(r.direction.y.abs() < 1e-15);
+            assert!((got - want).abs() < 1e-12, "e {e_deg}°: {got} vs {want}");
+            let thin = w * ((ng * ng - th1.sin().powi(2)).sqrt() / th1.cos() - 1.0);
+            assert!(
+                (got - thin).abs() < 0.01 * thin,
+                "e {e_deg}°: {got} vs thin {thin}"
+            );
+            // Upwards for a wedge thicker at the top: 1.5–2.5 mrad here.
+            assert!(got > 1.0e-3 && got < 3.0e-3, "{got}");
+        }
+        // Parallel faces turn nothing.
+        let flat = WindshieldConfig::default();
+        let d = DVec3::new(1.0, 0.2, -0.05).normalize();
+        assert!((flat.refract(d).unwrap().direction - d).length() < 1e-12);
     }
 
     #[test]
