@@ -227,6 +227,57 @@ fn two_hidden_effects_together_are_both_found() {
     assert!(failures.is_empty(), "{failures:?}");
 }
 
+/// A dashboard veil (issue 20 §4: the contrast loss of the dashboard's reflection in the
+/// windshield) on a grey-chart design, at 1× and 3× its tolerance: named
+/// `camera.dashboard_reflection`, not a gain error (which would scale each patch) nor dark current
+/// (which the capped frames would show).
+#[test]
+fn dashboard_veil_on_a_grey_chart_is_found() {
+    let mut missed = Vec::new();
+    for seed in [11, 12, 13] {
+        for m in [1.0, 3.0] {
+            let dir = tempfile::tempdir().unwrap();
+            let spec = CameraTruth {
+                seed,
+                hidden: Some(CameraHidden::DashboardVeil),
+                magnitude: m,
+                ..CameraTruth::default().with_chart()
+            };
+            let s = run(dir.path(), &spec);
+            eprintln!("veil seed {seed} at {m}×: {}\n{}", s.status, describe(&s));
+            let acc = s.accepted();
+            let ok = acc.iter().any(|a| a == "camera.dashboard_reflection")
+                && physical(&s)
+                    .iter()
+                    .all(|a| companion("camera.dashboard_reflection", a));
+            // The fitted veil against the generator's.
+            let hidden = osiris::consistency::truth_camera::hidden_veil_fraction(&spec);
+            let fitted = s
+                .attribution
+                .iter()
+                .flat_map(|a| a.effects.iter())
+                .find(|e| e.id == "camera.dashboard_reflection" && e.accepted)
+                .map_or(f64::NAN, |e| e.params[0].value);
+            eprintln!("veil fitted {fitted:.5}, hidden {hidden:.5}");
+            if !ok || s.status == "CONSISTENT" || (fitted - hidden).abs() > 0.05 * hidden {
+                missed.push(format!(
+                    "seed {seed} at {m}×: {} {acc:?}, veil {fitted} vs {hidden}",
+                    s.status
+                ));
+            }
+        }
+    }
+    assert!(missed.is_empty(), "not found: {missed:?}");
+}
+
+/// The grey chart alone hides nothing: CONSISTENT (the patches' reflectances reach both sides).
+#[test]
+fn null_grey_chart_is_consistent() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = run(dir.path(), &CameraTruth::default().with_chart());
+    assert_eq!(s.status, "CONSISTENT", "{}", describe(&s));
+}
+
 #[test]
 fn look_alikes_on_a_single_exposure_design_tie() {
     // Read noise vs DSNU: no temporal pairs on single frames.
@@ -521,4 +572,43 @@ fn camera_catalogue_parses_with_known_switches_and_exact_signatures() {
     x[3] = 32.0;
     let dc = get("camera.dark_current").eval(&x, &[1000.0, 7.0]);
     assert!((dc - 20.0).abs() < 1e-9, "{dc}");
+    // A veil of 2 % of a white's luminance on a 30 % patch giving 3000 DN: a white there gives
+    // 10 000 DN, so the veil adds 200 DN; nothing on a dark frame or an ROI of unknown reflectance.
+    let veil = get("camera.dashboard_reflection");
+    x[6] = 30.0;
+    x[10] = 1.0;
+    let v = veil.eval(&x, &[0.02]);
+    assert!((v - 200.0).abs() < 1e-9, "{v}");
+    x[10] = 0.0;
+    assert_eq!(veil.eval(&x, &[0.02]), 0.0);
+    x[10] = 1.0;
+    x[6] = 0.0;
+    assert_eq!(veil.eval(&x, &[0.02]), 0.0);
+
+    // The windshield's elevation signature against a two-face Snell chain written here in angles
+    // (rake 28°, n = 1.52, 4.96 mm; the ray in the vertical plane at elevation e; the outer face
+    // turned by the wedge w towards the bottom of the glass): reported lower by the deviation, and
+    // by the slab's offset Δ over the range.
+    let ws = get("camera.windshield_refraction");
+    let (n, t_m, w) = (1.52f64, 4.96e-3, 1.5e-3);
+    for (e_deg, range) in [(0.0f64, 20.0f64), (-3.0, 10.0), (2.0, 40.0)] {
+        let psi_n = 62f64.to_radians();
+        let e = e_deg.to_radians();
+        let th1 = psi_n - e;
+        let tht = (th1.sin() / n).asin();
+        let th2 = (psi_n - w) - (psi_n - tht);
+        let th3 = (n * th2.sin()).asin();
+        let deviation = (psi_n - w - th3) - e;
+        let slab = t_m * (th1 - tht).sin() / tht.cos();
+        let want = -(deviation + slab / range).to_degrees();
+        let mut x = [0.0; osiris::consistency::NVARS];
+        x[0] = range;
+        x[2] = e_deg;
+        let got = ws.eval(&x, &[1e3 * w]);
+        // First order in w: within 1 % of the exact chain.
+        assert!(
+            (got - want).abs() < 0.01 * want.abs(),
+            "e {e_deg}°: {got} vs {want}"
+        );
+    }
 }

@@ -63,8 +63,9 @@
 //! `range` = field angle of the ROI centre [deg], `azimuth` = its position angle [deg],
 //! `elevation` = channel (0 R, 1 G, 2 B, 3 all), `aspect` = die temperature [°C], `area` = pixels,
 //! `edge` = exposure [s], `reflectivity` = target reflectance [%], `height` = 1 spatial / 0
-//! temporal, `width` = analog gain, `sim` = simulated mean signal above black [DN], `prx` = the
-//! row's standard error, `mount_h` = simulated variance [DN²].
+//! temporal, `width` = analog gain, `sim` = simulated mean signal above black [DN], `rain` = 1 for
+//! a lit frame, 0 for a dark one (lens capped), `prx` = the row's standard error, `mount_h` =
+//! simulated variance [DN²].
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -104,6 +105,8 @@ pub mod var {
     pub const SPATIAL: usize = 7;
     pub const ANALOG_GAIN: usize = 8;
     pub const SIM_SIGNAL_DN: usize = super::V_SIM;
+    /// 1 for a lit frame, 0 for a dark one (the `rain` slot).
+    pub const LIT: usize = 10;
     pub const SIGMA: usize = super::V_PRX;
     pub const SIM_VARIANCE_DN2: usize = 13;
 }
@@ -778,6 +781,7 @@ pub fn pair_frames(
                 x[var::SPATIAL] = 1.0;
                 x[var::ANALOG_GAIN] = fm.analog_gain;
                 x[var::SIM_SIGNAL_DN] = signal;
+                x[var::LIT] = if fm.dark { 0.0 } else { 1.0 };
                 x[var::SIM_VARIANCE_DN2] = v_s;
                 let time_s = fm.timestamp_s;
                 // Mean, DN.

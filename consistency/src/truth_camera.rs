@@ -8,7 +8,9 @@
 //! and Gaussian noise (SplitMix64 + Box–Muller), its own fixed-pattern maps (Gaussian PRNU gain and
 //! DSNU offset maps), dark current doubling every T_d kelvin, a relative-illumination polynomial
 //! 1 − a₂ρ² − a₄ρ⁴ in the normalised image radius ρ (not cos⁴θ), full-well clipping, 12-bit ADC,
-//! and an unknown black-level offset and gain of the measured camera (nuisances).
+//! and an unknown black-level offset and gain of the measured camera (nuisances). The scene is a
+//! flat field of 80 % reflectance, or (`chart`) a grey chart: each ROI a patch of its own
+//! reflectance on the 80 % field.
 //!
 //! Hidden effects are *measurement physics the model lacks*: the measured frames have the effect at
 //! a magnitude scaled to `magnitude` × the tolerance (its largest centred contribution to the
@@ -42,6 +44,10 @@ pub enum CameraHidden {
     Vignetting,
     /// A lower full well: the brightest ROIs clip.
     Saturation,
+    /// A veiling luminance over the lit frames (a sunlit dashboard mirrored in the windshield): the
+    /// same added luminance on every patch, a fraction of a 100 % white's; none with the lens
+    /// capped. Needs a `chart` design to be told from a gain error.
+    DashboardVeil,
     /// Not in the catalogue: rolling-shutter flicker banding, the illumination modulated along the
     /// rows as 1 + b·sin(2πy/(2.5·height) + φ) with a phase that changes every frame.
     FlickerBanding,
@@ -58,6 +64,7 @@ impl CameraHidden {
             CameraHidden::DarkCurrent => "camera.dark_current",
             CameraHidden::Vignetting => "camera.vignetting",
             CameraHidden::Saturation => "camera.saturation",
+            CameraHidden::DashboardVeil => "camera.dashboard_reflection",
             CameraHidden::FlickerBanding => return None,
         })
     }
@@ -69,6 +76,7 @@ impl CameraHidden {
             CameraHidden::DarkCurrent
                 | CameraHidden::Vignetting
                 | CameraHidden::Saturation
+                | CameraHidden::DashboardVeil
                 | CameraHidden::FlickerBanding
         )
     }
@@ -115,6 +123,8 @@ pub struct CameraTruth {
     pub roi_mean_pct: f64,
     pub roi_variance_pct: f64,
     pub holdout_fraction: f64,
+    /// A grey chart instead of the flat field: ROI k is a patch of `CHART_PCT[k % 9]` reflectance.
+    pub chart: bool,
 }
 
 impl Default for CameraTruth {
@@ -138,11 +148,42 @@ impl Default for CameraTruth {
             roi_mean_pct: 5.0,
             roi_variance_pct: 20.0,
             holdout_fraction: 0.25,
+            chart: false,
         }
     }
 }
 
 impl CameraTruth {
+    /// The grey-chart scene (a patch of its own reflectance in each ROI), exposed 4–10 ms so that
+    /// the darkest patch stays ≥ 100 DN in every channel (the unknown black offset is then ≤ 2.5 %
+    /// of it, as on the flat field at 1 ms).
+    pub fn with_chart(mut self) -> Self {
+        self.chart = true;
+        self.exposures_s = vec![0.004, 0.006, 0.008, 0.010];
+        self
+    }
+
+    /// Reflectance of ROI `k`, %.
+    fn roi_reflectance_pct(&self, k: usize) -> f64 {
+        if self.chart {
+            CHART_PCT[k % CHART_PCT.len()]
+        } else {
+            FIELD_PCT
+        }
+    }
+
+    /// Reflectance of every pixel, % (the field outside the ROIs).
+    fn reflectance_map(&self) -> Vec<f64> {
+        let mut m = vec![FIELD_PCT; self.width * self.height];
+        for (k, r) in rois(self).iter().enumerate() {
+            for y in r[1]..(r[1] + r[3]).min(self.height) {
+                for x in r[0]..(r[0] + r[2]).min(self.width) {
+                    m[y * self.width + x] = self.roi_reflectance_pct(k);
+                }
+            }
+        }
+        m
+    }
     /// A single-exposure design without temporal pairs or dark frames (look-alikes tie there).
     pub fn single_exposure(mut self) -> Self {
         self.exposures_s = vec![0.006];
@@ -187,6 +228,8 @@ struct Side {
     vignetting: f64,
     /// Flicker banding amplitude b.
     banding: f64,
+    /// Veiling luminance over the lit frames, as a fraction of a 100 % white's.
+    veil: f64,
 }
 
 /// The sensor (guessed automotive 12-bit values, EMVA-1288-style datasheet magnitudes).
@@ -202,7 +245,12 @@ const BASE: Side = Side {
     full_well_e: 12_000.0,
     vignetting: 0.0,
     banding: 0.0,
+    veil: 0.0,
 };
+/// Reflectance of the flat field, % (`RATE_E_S` is its signal).
+const FIELD_PCT: f64 = 80.0;
+/// Patch reflectances of the grey chart, %.
+const CHART_PCT: [f64; 9] = [20.0, 60.0, 30.0, 80.0, 40.0, 90.0, 25.0, 50.0, 70.0];
 const ADC_MAX: f64 = 4095.0;
 /// Electron generation rate at the image centre per channel (R, G, B), e⁻/s.
 const RATE_E_S: [f64; 3] = [0.7 * 840_000.0, 840_000.0, 0.5 * 840_000.0];
@@ -310,7 +358,7 @@ fn expected(
     s: &Side,
     frame_i: usize,
     f: &FrameSpec,
-    roi: [usize; 4],
+    (roi, refl_pct): ([usize; 4], f64),
     ch: usize,
 ) -> (f64, f64, f64) {
     let (x, y) = (
@@ -318,16 +366,16 @@ fn expected(
         roi[1] as f64 + 0.5 * roi[3] as f64,
     );
     let r = rho(spec, x, y);
-    let light = if f.dark {
-        0.0
+    let (light, veil) = if f.dark {
+        (0.0, 0.0)
     } else {
-        RATE_E_S[ch]
-            * ri_base(r)
-            * (1.0 - s.vignetting * r * r)
-            * (1.0 + s.banding * banding(spec, y, frame_i))
-            * f.exposure_s
+        let lens = RATE_E_S[ch] * ri_base(r) * (1.0 - s.vignetting * r * r) * f.exposure_s;
+        (
+            lens * (1.0 + s.banding * banding(spec, y, frame_i)) * refl_pct / FIELD_PCT,
+            lens * s.veil * 100.0 / FIELD_PCT,
+        )
     };
-    let e = (light + dark_rate(s, f.temperature_c) * f.exposure_s).min(s.full_well_e);
+    let e = (light + veil + dark_rate(s, f.temperature_c) * f.exposure_s).min(s.full_well_e);
     let k = s.k_dn_per_e;
     let temporal = k * k * s.shot * e + s.read_dn.powi(2) + 1.0 / 12.0;
     let spatial = temporal + s.dsnu_dn.powi(2) + (k * s.prnu * light).powi(2);
@@ -359,18 +407,28 @@ fn hidden_side(spec: &CameraTruth) -> (Side, Side) {
     (meas, model)
 }
 
+/// The veil of the measured camera (fraction of a 100 % white's luminance; 0 unless
+/// [`CameraHidden::DashboardVeil`] is hidden).
+pub fn hidden_veil_fraction(spec: &CameraTruth) -> f64 {
+    hidden_side(spec).0.veil
+}
+
 /// The magnitude parameter of `h` whose largest centred contribution (alone, over `model`) is
 /// `magnitude` × the tolerance of its quantity.
 fn hidden_magnitude(spec: &CameraTruth, model: &Side, h: CameraHidden) -> f64 {
     let model = *model;
     let fr = frames(spec);
-    let rs = rois(spec);
+    let rs: Vec<([usize; 4], f64)> = rois(spec)
+        .into_iter()
+        .enumerate()
+        .map(|(k, r)| (r, spec.roi_reflectance_pct(k)))
+        .collect();
     // Tolerances as camera.rs derives them.
     let mut lit: Vec<f64> = Vec::new();
     for (i, f) in fr.iter().enumerate() {
-        for &r in &rs {
+        for r in &rs {
             for ch in 0..3 {
-                let (sig, _, _) = expected(spec, &model, i, f, r, ch);
+                let (sig, _, _) = expected(spec, &model, i, f, *r, ch);
                 if !f.dark {
                     lit.push(sig);
                 }
@@ -388,10 +446,10 @@ fn hidden_magnitude(spec: &CameraTruth, model: &Side, h: CameraHidden) -> f64 {
         let meas = apply(model, h, m);
         let mut c = Vec::new();
         for (i, f) in fr.iter().enumerate() {
-            for &r in &rs {
+            for r in &rs {
                 for ch in 0..3 {
-                    let (sm, vm, tm) = expected(spec, &meas, i, f, r, ch);
-                    let (ss, vs, ts) = expected(spec, &model, i, f, r, ch);
+                    let (sm, vm, tm) = expected(spec, &meas, i, f, *r, ch);
+                    let (ss, vs, ts) = expected(spec, &model, i, f, *r, ch);
                     if h.in_mean() {
                         c.push(sm - ss);
                     } else {
@@ -438,6 +496,7 @@ fn apply(model: Side, h: CameraHidden, m: f64) -> Side {
             s.full_well_e = 8_400.0 * 1.2 * (1.0 - m.min(1.0));
         }
         CameraHidden::FlickerBanding => s.banding = m.min(0.9),
+        CameraHidden::DashboardVeil => s.veil = 0.01 * m,
     }
     s
 }
@@ -450,6 +509,7 @@ fn render(
     f: &FrameSpec,
     frame_i: usize,
     maps: &(Vec<f64>, Vec<f64>),
+    refl_pct: &[f64],
     rng: &mut SplitMix,
     black_dn: f64,
     gain: f64,
@@ -464,12 +524,14 @@ fn render(
             let light = if f.dark {
                 0.0
             } else {
-                RATE_E_S[rggb(x, y)]
+                let lens = RATE_E_S[rggb(x, y)]
                     * ri_base(r)
                     * (1.0 - s.vignetting * r * r)
-                    * (1.0 + s.banding * banding(spec, y as f64 + 0.5, frame_i))
                     * f.exposure_s
-                    * (1.0 + s.prnu * maps.0[i])
+                    * (1.0 + s.prnu * maps.0[i]);
+                lens * (1.0 + s.banding * banding(spec, y as f64 + 0.5, frame_i)) * refl_pct[i]
+                    / FIELD_PCT
+                    + lens * s.veil * 100.0 / FIELD_PCT
             };
             let mean_e = light + d;
             let e = if s.shot > 0.0 {
@@ -613,13 +675,19 @@ pub fn campaign_toml(spec: &CameraTruth, run_id: &str) -> String {
     for (i, r) in rois(spec).iter().enumerate() {
         let _ = writeln!(
             t,
-            "[[roi]]\nid = {}\nrect_px = [{}, {}, {}, {}]\ntarget = \"flat field\"\n\
-             reflectance_pct = 80\n",
+            "[[roi]]\nid = {}\nrect_px = [{}, {}, {}, {}]\ntarget = \"{}\"\n\
+             reflectance_pct = {}\n",
             i + 1,
             r[0],
             r[1],
             r[2],
-            r[3]
+            r[3],
+            if spec.chart {
+                "grey chart patch"
+            } else {
+                "flat field"
+            },
+            spec.roi_reflectance_pct(i)
         );
     }
     t
@@ -647,6 +715,7 @@ pub fn write_camera(dir: &Path, spec: &CameraTruth) -> Result<CameraFiles> {
     };
     let maps_m = map(&mut rng_m);
     let maps_s = map(&mut rng_s);
+    let refl = spec.reflectance_map();
     for (i, f) in fr.iter().enumerate() {
         let name = format!("f{i:03}.png");
         let m = render(
@@ -655,6 +724,7 @@ pub fn write_camera(dir: &Path, spec: &CameraTruth) -> Result<CameraFiles> {
             f,
             i,
             &maps_m,
+            &refl,
             &mut rng_m,
             BASE.black_dn + spec.black_offset_dn,
             1.0 + spec.gain_error,
@@ -668,6 +738,7 @@ pub fn write_camera(dir: &Path, spec: &CameraTruth) -> Result<CameraFiles> {
             f,
             i,
             &maps_s,
+            &refl,
             &mut rng_s,
             BASE.black_dn,
             1.0,
