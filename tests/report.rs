@@ -485,3 +485,79 @@ fn traffic_light_state_errors_against_the_ground_truth_modes() {
         1
     );
 }
+
+/// The report's traffic-control table: per-frame counts of the reported bulbs, signs and lane
+/// boundaries, and the bulb-state misreads against the ground truth.
+#[test]
+fn report_html_shows_the_traffic_control_outputs() {
+    use osi3::traffic_light::classification::Mode;
+    let mut view = sensor_view();
+    let gt = view.global_ground_truth.as_mut().unwrap();
+    gt.traffic_light = vec![osi3::TrafficLight {
+        id: Some(osiris_proto::id(77)),
+        classification: Some(osi3::traffic_light::Classification {
+            mode: Some(Mode::Constant as i32),
+            ..Default::default()
+        }),
+        ..Default::default()
+    }];
+    let bulb = |mode: Mode| osi3::DetectedTrafficLight {
+        header: Some(osi3::DetectedItemHeader {
+            ground_truth_id: vec![osiris_proto::id(77)],
+            ..Default::default()
+        }),
+        candidate: vec![osi3::detected_traffic_light::CandidateTrafficLight {
+            probability: Some(1.0),
+            classification: Some(osi3::traffic_light::Classification {
+                mode: Some(mode as i32),
+                ..Default::default()
+            }),
+        }],
+        ..Default::default()
+    };
+    let mut report = ReportBuilder::new("traffic control");
+    // Frame 0: nothing; frame 1: the bulb read lit, a sign, two boundaries; frame 2: read dark.
+    let frames = [
+        (vec![], 0, 0),
+        (vec![bulb(Mode::Constant)], 1, 2),
+        (vec![bulb(Mode::Off)], 0, 2),
+    ];
+    for (k, (lights, signs, boundaries)) in frames.into_iter().enumerate() {
+        let mut sd = sensor_data();
+        sd.timestamp = Some(osi3::Timestamp {
+            seconds: Some(0),
+            nanos: Some(100_000_000 * k as u32),
+        });
+        sd.traffic_light = lights;
+        sd.traffic_sign = vec![osi3::DetectedTrafficSign::default(); signs];
+        sd.lane_boundary = vec![osi3::DetectedLaneBoundary::default(); boundaries];
+        report.push(ReportStep {
+            sensor: "front camera",
+            time_s: 0.1 * k as f64,
+            sensor_view: Some(&view),
+            sensor_data: &sd,
+            perception: None,
+            step_wall_ms: None,
+        });
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let html =
+        std::fs::read_to_string(report.write(dir.path(), true).unwrap().report_html.unwrap())
+            .unwrap();
+    assert!(html.contains("<h3>Traffic control</h3>"), "table");
+    // Bulbs: 2 in 3 frames (0.67 per frame), max 1, in 2 of 3, first at 0.1 s.
+    assert!(
+        html.contains("<tr><td>traffic-light bulbs</td><td>0.67</td><td>1</td><td>2 / 3</td><td>0.100 s</td></tr>"),
+        "{html}"
+    );
+    assert!(html.contains(
+        "<tr><td>traffic signs</td><td>0.33</td><td>1</td><td>1 / 3</td><td>0.100 s</td></tr>"
+    ));
+    assert!(html.contains(
+        "<tr><td>lane boundaries</td><td>1.33</td><td>2</td><td>2 / 3</td><td>0.100 s</td></tr>"
+    ));
+    assert!(
+        html.contains("1 in 1 of 3 frames with ground truth"),
+        "misreads"
+    );
+}

@@ -171,6 +171,7 @@ fn section(h: &mut String, s: &SensorReport) {
         }
     }
     h.push_str("</div>\n");
+    traffic_control(h, s);
     if kind == SectionKind::Camera {
         camera_strip(h, &s.camera_shots);
     }
@@ -195,6 +196,56 @@ fn section(h: &mut String, s: &SensorReport) {
         }
     }
     h.push_str("</section>\n");
+}
+
+/// The traffic-control outputs of a sensor (SensorData traffic lights, signs, lane boundaries;
+/// frames.csv columns), when it reported any: per-frame counts and the bulb-state errors against
+/// the ground truth.
+fn traffic_control(h: &mut String, s: &SensorReport) {
+    let f = &s.frames;
+    let errors: Vec<usize> = f
+        .iter()
+        .filter_map(|r| r.traffic_light_state_errors)
+        .collect();
+    let reported = f
+        .iter()
+        .any(|r| r.traffic_lights + r.traffic_signs + r.lane_boundaries > 0);
+    if !reported && errors.iter().all(|&e| e == 0) {
+        return;
+    }
+    let n = f.len().max(1) as f64;
+    let row = |h: &mut String, what: &str, count: &dyn Fn(&super::kpi::FrameRow) -> usize| {
+        let total: usize = f.iter().map(count).sum();
+        let with = f.iter().filter(|r| count(r) > 0).count();
+        let max = f.iter().map(count).max().unwrap_or(0);
+        let first = f
+            .iter()
+            .find(|r| count(r) > 0)
+            .map_or("–".to_owned(), |r| format!("{:.3} s", r.time_s));
+        let _ = writeln!(
+            h,
+            "<tr><td>{what}</td><td>{:.2}</td><td>{max}</td><td>{with} / {}</td><td>{first}</td></tr>",
+            total as f64 / n,
+            f.len()
+        );
+    };
+    h.push_str(
+        "<h3>Traffic control</h3><table><tr><th>reported</th><th>per frame</th><th>max</th>\
+         <th>frames with one</th><th>first at</th></tr>\n",
+    );
+    row(h, "traffic-light bulbs", &|r| r.traffic_lights);
+    row(h, "traffic signs", &|r| r.traffic_signs);
+    row(h, "lane boundaries", &|r| r.lane_boundaries);
+    let judged = errors.len();
+    let total: usize = errors.iter().sum();
+    let frames_with = errors.iter().filter(|&&e| e > 0).count();
+    let _ = writeln!(
+        h,
+        "</table><p class=\"note\">Bulb state misreads against the ground truth (a reported \
+         lit/dark state that differs from the bulb's mode: CONSTANT or COUNTING lit, OFF dark; \
+         FLASHING not judged): {total} in {frames_with} of {judged} frames with ground truth. \
+         From SensorData.traffic_light, traffic_sign and lane_boundary; per frame in frames.csv.</p>"
+    );
 }
 
 /// Evenly spaced ISP frames with the recognised objects' boxes as SVG overlays.
