@@ -177,6 +177,14 @@ pub mod quantity {
     /// Camera ROI variance (spatial per frame, temporal per frame pair), 100·ln(meas/sim)
     /// ("log-percent", ≈ % for small differences; variance-stabilised).
     pub const CAMERA_VARIANCE_PCT: &str = "roi_variance_pct";
+    /// Camera detections: the screen width (azimuth span) of a detection's box, meas vs sim,
+    /// 100·(meas − sim)/sim, % (metrics).
+    pub const SCREEN_WIDTH_PCT: &str = "screen_width_pct";
+    /// Camera detections: the screen height (elevation span), as the width, % (metrics).
+    pub const SCREEN_HEIGHT_PCT: &str = "screen_height_pct";
+    /// Camera detections: the recognition's distance (the mean distance of the box's points),
+    /// 100·(meas − sim)/sim, % (metrics).
+    pub const RECOGNITION_DISTANCE_PCT: &str = "recognition_distance_pct";
     /// Camera ROI variance per ROI × channel × kind (spatial / temporal), the frames pooled,
     /// 100·(meas/sim − 1), % (metrics).
     pub const CAMERA_VARIANCE_ROI_PCT: &str = "roi_variance_per_roi_pct";
@@ -232,6 +240,8 @@ pub fn tolerance_of(q: &str, t: &campaign::Tolerances) -> f64 {
         quantity::CAMERA_MEAN_DN => t.roi_mean_dn,
         quantity::CAMERA_MEAN_PCT => t.roi_mean_pct,
         quantity::CAMERA_VARIANCE_PCT | quantity::CAMERA_VARIANCE_ROI_PCT => t.roi_variance_pct,
+        quantity::SCREEN_WIDTH_PCT | quantity::SCREEN_HEIGHT_PCT => t.screen_size_pct,
+        quantity::RECOGNITION_DISTANCE_PCT => t.recognition_distance_pct,
         _ => f64::INFINITY,
     }
 }
@@ -289,6 +299,9 @@ pub fn metric_quantities(kind: campaign::CampaignSensor) -> &'static [&'static s
             quantity::CAMERA_VARIANCE_ROI_PCT,
             quantity::AZIMUTH_DEG,
             quantity::ELEVATION_DEG,
+            quantity::SCREEN_WIDTH_PCT,
+            quantity::SCREEN_HEIGHT_PCT,
+            quantity::RECOGNITION_DISTANCE_PCT,
         ],
     }
 }

@@ -182,7 +182,11 @@ pub fn unit_of(q: &str) -> &'static str {
         super::quantity::POWER_DB
         | super::quantity::INTENSITY_DB
         | super::quantity::INTENSITY_SD_DB => "dB",
-        super::quantity::INTENSITY_PCT | super::quantity::POINTS_ON_TARGET_PCT => "%",
+        super::quantity::INTENSITY_PCT
+        | super::quantity::POINTS_ON_TARGET_PCT
+        | super::quantity::SCREEN_WIDTH_PCT
+        | super::quantity::SCREEN_HEIGHT_PCT
+        | super::quantity::RECOGNITION_DISTANCE_PCT => "%",
         super::quantity::GAP_POINTS => "points/frame",
         super::quantity::CLUTTER_COUNT => "detections/band/frame",
         super::quantity::POINTS_LOG_RATIO => "ln ratio",

@@ -840,15 +840,22 @@ fn pick_nearest(
 
 /// A camera detection: the direction of its angular box centre (azimuth, elevation; deg) and its
 /// object id.
-type CameraDirection = (Option<(f64, f64)>, Option<osi3::Identifier>);
+type CameraDirection = (Option<CameraBox>, Option<osi3::Identifier>);
 
-/// The direction of a camera detection: the centre of the angular box spanned by its points
-/// (OSI `CameraPoint.point`, spherical in the sensor frame; a box detection has two, the first and
-/// third corner), (azimuth, elevation) in deg; `None` without finite points.
-fn camera_direction(
-    data: &osi3::CameraDetectionData,
-    d: &osi3::CameraDetection,
-) -> Option<(f64, f64)> {
+/// The angular box of a camera detection, spanned by its points (OSI `CameraPoint.point`,
+/// spherical in the sensor frame; a box detection has two, the first and third corner).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct CameraBox {
+    /// Centre (azimuth, elevation), deg.
+    centre: (f64, f64),
+    /// Width (azimuth span) and height (elevation span), deg: the screen size.
+    size: (f64, f64),
+    /// The recognition's distance: the mean of the points' finite positive distances, m.
+    distance_m: Option<f64>,
+}
+
+/// The angular box of a camera detection; `None` without finite points.
+fn camera_box(data: &osi3::CameraDetectionData, d: &osi3::CameraDetection) -> Option<CameraBox> {
     let first = d.first_point_index? as usize;
     let n = d.number_of_points.unwrap_or(0) as usize;
     let points = data.point.get(first..first.checked_add(n)?)?;
@@ -856,6 +863,7 @@ fn camera_direction(
         (f64::INFINITY, f64::NEG_INFINITY),
         (f64::INFINITY, f64::NEG_INFINITY),
     );
+    let (mut dist, mut nd) = (0.0, 0usize);
     for p in points.iter().filter_map(|p| p.point.as_ref()) {
         let (a, e) = (p.azimuth?, p.elevation.unwrap_or(0.0));
         if !(a.is_finite() && e.is_finite()) {
@@ -863,20 +871,29 @@ fn camera_direction(
         }
         az = (az.0.min(a), az.1.max(a));
         el = (el.0.min(e), el.1.max(e));
+        if let Some(r) = p.distance.filter(|r| r.is_finite() && *r > 0.0) {
+            dist += r;
+            nd += 1;
+        }
     }
-    az.0.is_finite().then(|| {
-        (
+    az.0.is_finite().then(|| CameraBox {
+        centre: (
             (0.5 * (az.0 + az.1)).to_degrees(),
             (0.5 * (el.0 + el.1)).to_degrees(),
-        )
+        ),
+        size: ((az.1 - az.0).to_degrees(), (el.1 - el.0).to_degrees()),
+        distance_m: (nd > 0).then(|| dist / nd as f64),
     })
 }
 
 /// Camera detections (campaigns with `camera_detections`): per target and frame the measured and
 /// the simulated detection of the target's ground-truth id (or, associating by gating or without
 /// ids, the detection nearest in direction within 3°), rows of the direction of the detection's
-/// angular box centre: `azimuth_deg`, `elevation_deg`. A mono camera's distance estimate is not a
-/// measurement of the target's range; it gives no row.
+/// angular box centre: `azimuth_deg`, `elevation_deg`; and the recognition outputs DIVP compared
+/// between a real and a simulated camera (metrics, relative to the simulated value, %): the
+/// box's screen size, `screen_width_pct` and `screen_height_pct` (boxes ≥ 0.05° in that
+/// dimension), and the recognition distance, `recognition_distance_pct` (when both report one). A
+/// mono camera's distance estimate is the recognition's output, not a measurement of the range.
 fn camera_frame(
     campaign: &Campaign,
     geom: &FrameGeom,
@@ -895,7 +912,7 @@ fn camera_frame(
             .flat_map(|c| {
                 c.detection
                     .iter()
-                    .map(move |d| (camera_direction(c, d), d.object_id))
+                    .map(move |d| (camera_box(c, d), d.object_id))
             })
             .collect()
     };
@@ -914,7 +931,7 @@ fn camera_frame(
                 g: &TargetGeometry|
      -> Option<usize> {
         pick_nearest(used, truth, ids, g.id, |i| {
-            let (az, el) = list[i].0?;
+            let (az, el) = list[i].0?.centre;
             let cost = (az - g.azimuth_deg).hypot(el - g.elevation_deg);
             (ids || !(cost.is_nan() || cost > 3.0)).then_some(cost)
         })
@@ -929,15 +946,34 @@ fn camera_frame(
             continue;
         };
         out.counts.both += 1;
-        let (Some((ma, me)), Some((sa, se))) = (m[mi].0, s[si].0) else {
+        let (Some(mb), Some(sb)) = (m[mi].0, s[si].0) else {
             continue;
         };
+        let ((ma, me), (sa, se)) = (mb.centre, sb.centre);
         let x = vars(campaign, geom, g);
         let station = station_key(g.id, g.range_m, g.azimuth_deg);
+        // Recognition outputs relative to the simulated value, %.
+        let pct = |m: f64, s: f64| 100.0 * (m - s) / s;
+        let min_size = 0.05;
+        let recognition = [
+            (quantity::SCREEN_WIDTH_PCT, mb.size.0, sb.size.0),
+            (quantity::SCREEN_HEIGHT_PCT, mb.size.1, sb.size.1),
+        ]
+        .into_iter()
+        .filter(|&(_, m, s)| m >= min_size && s >= min_size)
+        .chain(
+            mb.distance_m
+                .zip(sb.distance_m)
+                .map(|(m, s)| (quantity::RECOGNITION_DISTANCE_PCT, m, s)),
+        )
+        .map(|(q, m, s)| (q, pct(m, s), 0.0));
         for (q, meas, sim) in [
             (quantity::AZIMUTH_DEG, ma, sa),
             (quantity::ELEVATION_DEG, me, se),
-        ] {
+        ]
+        .into_iter()
+        .chain(recognition)
+        {
             let mut x = x;
             x[super::V_SIM] = sim;
             x[super::V_PRX] = sim;
