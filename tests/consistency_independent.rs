@@ -13,8 +13,9 @@ use independent_truth::{
     BoardCase, CalibrationCase, CameraCase, ClutterCase, FmcwCase, LidarCase, RadarCase, Written,
 };
 use osiris::consistency::ConsistencyArgs;
+use osiris::consistency::attribution::{EffectResult, QuantityAttribution};
 use osiris::consistency::cli::run_with;
-use osiris::consistency::report::Summary;
+use osiris::consistency::report::{Action, Summary};
 
 const DEFAULT_SEEDS: [u64; 3] = [1501, 1502, 1503];
 
@@ -124,6 +125,30 @@ fn run(w: &Written, out: &std::path::Path) -> Summary {
         ..args_for(w, out.to_path_buf())
     };
     run_with(&args, None).expect("the workflow runs")
+}
+
+/// The attribution of `quantity` in the summary `s`.
+fn attribution<'a>(s: &'a Summary, quantity: &str) -> &'a QuantityAttribution {
+    s.attribution
+        .iter()
+        .find(|a| a.quantity == quantity)
+        .unwrap_or_else(|| panic!("no {quantity} rows"))
+}
+
+/// The fit of effect `id` in the attribution `q`.
+fn fit<'a>(q: &'a QuantityAttribution, id: &str) -> &'a EffectResult {
+    q.effects
+        .iter()
+        .find(|e| e.id == id)
+        .unwrap_or_else(|| panic!("no fit of {id}"))
+}
+
+/// The summary's action for the effect `id`.
+fn action_for<'a>(s: &'a Summary, id: &str) -> &'a Action {
+    s.actions
+        .iter()
+        .find(|a| a.effect == id)
+        .expect("an action for the named effect")
 }
 
 enum Expect {
@@ -633,11 +658,7 @@ fn closed_loop_ground_multipath_with_the_physical_radar_model() {
         before.status, o.accepted, before.error["power_db"]
     );
     assert!(o.names("radar.ground_multipath"), "{:?}", o.accepted);
-    let action = before
-        .actions
-        .iter()
-        .find(|a| a.effect == "radar.ground_multipath")
-        .expect("an action for the named effect");
+    let action = action_for(&before, "radar.ground_multipath");
     let cmd = action.command.as_deref().unwrap();
     assert!(
         cmd.contains("--enable radar.ground_multipath")
@@ -712,11 +733,7 @@ fn closed_loop_yaw_misalignment_with_the_physical_radar_model() {
         before.error["azimuth_deg"],
         t0.elapsed().as_secs_f64()
     );
-    let fitted = before
-        .attribution
-        .iter()
-        .find(|a| a.quantity == "azimuth_deg")
-        .expect("azimuth rows");
+    let fitted = attribution(&before, "azimuth_deg");
     assert!(
         fitted
             .accepted
@@ -724,11 +741,7 @@ fn closed_loop_yaw_misalignment_with_the_physical_radar_model() {
         "{:?}",
         fitted.accepted
     );
-    let e = fitted
-        .effects
-        .iter()
-        .find(|e| e.id == "radar.extrinsic_error")
-        .unwrap();
+    let e = fit(fitted, "radar.extrinsic_error");
     let (yaw, y) = (e.params[0].value, e.params[1].value);
     let hidden = w.hidden_value.expect("the hidden yaw, deg");
     println!("fitted yaw {yaw:.3}° (hidden {hidden:.3}°), lateral offset {y:.3} m (hidden 0)");
@@ -737,11 +750,7 @@ fn closed_loop_yaw_misalignment_with_the_physical_radar_model() {
         "fitted yaw {yaw:.3}°, hidden {hidden:.3}°"
     );
     assert!(y.abs() <= 0.05, "fitted lateral offset {y:.3} m, hidden 0");
-    let action = before
-        .actions
-        .iter()
-        .find(|a| a.effect == "radar.extrinsic_error")
-        .expect("an action for the named effect");
+    let action = action_for(&before, "radar.extrinsic_error");
     assert!(
         action
             .command
@@ -803,13 +812,7 @@ fn closed_loop_online_calibration_with_the_physical_radar_model() {
         ),
     );
     let id = "radar.mounting_misalignment";
-    let az = |s: &Summary| {
-        s.attribution
-            .iter()
-            .find(|a| a.quantity == "azimuth_deg")
-            .expect("azimuth rows")
-            .clone()
-    };
+    let az = |s| attribution(s, "azimuth_deg");
     let t0 = std::time::Instant::now();
     // The campaign's ground is absorber mats: no road clutter in the model either (its stationary
     // clutter detections would feed the model's calibration too).
@@ -832,18 +835,14 @@ fn closed_loop_online_calibration_with_the_physical_radar_model() {
         "{:?}",
         fitted.accepted
     );
-    let e = fitted.effects.iter().find(|e| e.id == id).unwrap();
+    let e = fit(fitted, id);
     let (yaw, w0) = (e.params[0].value, e.params[1].value);
     println!("fitted yaw {yaw:.3}° (hidden {hidden:.3}°), prior weight {w0:.1} (m/s)²/rad²");
     assert!(
         (yaw - hidden).abs() <= 0.15,
         "fitted yaw {yaw:.3}°, hidden {hidden:.3}°"
     );
-    let action = before
-        .actions
-        .iter()
-        .find(|a| a.effect == id)
-        .expect("an action for the named effect");
+    let action = action_for(&before, id);
     let cmd = action.command.as_deref().unwrap();
     assert!(cmd.contains(&format!("--enable {id}")), "{cmd}");
     let after = run_with(
@@ -914,13 +913,7 @@ fn closed_loop_time_offset_with_the_physical_radar_model() {
         None,
     )
     .unwrap();
-    let range_rows = |s: &Summary| {
-        s.attribution
-            .iter()
-            .find(|a| a.quantity == "range_m")
-            .expect("range rows")
-            .clone()
-    };
+    let range_rows = |s| attribution(s, "range_m");
     let fitted = range_rows(&before);
     println!(
         "without: {} accepted on range {:?}, range RMS {:.3} m ({:.1} s)",
@@ -934,13 +927,7 @@ fn closed_loop_time_offset_with_the_physical_radar_model() {
         "{:?}",
         fitted.accepted
     );
-    let dt_ms = fitted
-        .effects
-        .iter()
-        .find(|e| e.id == "radar.time_offset")
-        .unwrap()
-        .params[0]
-        .value;
+    let dt_ms = fit(fitted, "radar.time_offset").params[0].value;
     println!("fitted clock offset {dt_ms:.1} ms (hidden {hidden_ms:.1} ms)");
     assert!(
         (dt_ms - hidden_ms).abs() <= 0.25 * hidden_ms.abs(),
@@ -1004,13 +991,7 @@ fn closed_loop_camera_yaw_misalignment_with_the_physical_camera_model() {
     };
     let t0 = std::time::Instant::now();
     let before = run_with(&args("without", model("nominal.json", ""), &[], &[]), None).unwrap();
-    let az = |s: &Summary| {
-        s.attribution
-            .iter()
-            .find(|a| a.quantity == "azimuth_deg")
-            .expect("azimuth rows")
-            .clone()
-    };
+    let az = |s| attribution(s, "azimuth_deg");
     let fitted = az(&before);
     println!(
         "without: {} accepted on azimuth {:?}, azimuth RMS {:.3}°, pairing {:?} ({:.1} s)",
@@ -1027,13 +1008,7 @@ fn closed_loop_camera_yaw_misalignment_with_the_physical_camera_model() {
         "{:?}",
         fitted.accepted
     );
-    let yaw = fitted
-        .effects
-        .iter()
-        .find(|e| e.id == "camera.extrinsic_error")
-        .unwrap()
-        .params[0]
-        .value;
+    let yaw = fit(fitted, "camera.extrinsic_error").params[0].value;
     println!("fitted yaw {yaw:.3}° (hidden {hidden:.3}°)");
     assert!(
         (yaw - hidden).abs() <= 0.1,
@@ -1199,17 +1174,9 @@ fn closed_loop_fmcw_speckle_with_the_physical_lidar_model() {
     // The speckle is named on the intensity spread. (The points on target are not compared here:
     // the generator's scan, 0.2° rings × 0.4° columns, is not the model's VLS-128 layout, so
     // `lidar.dropped_rays` may take up the count ratio.)
-    let spread = before
-        .attribution
-        .iter()
-        .find(|a| a.quantity == "intensity_sd_db")
-        .expect("intensity-spread rows");
+    let spread = attribution(&before, "intensity_sd_db");
     assert_eq!(spread.accepted, ["lidar.fmcw_speckle"], "{:?}", o.accepted);
-    let action = before
-        .actions
-        .iter()
-        .find(|a| a.effect == "lidar.fmcw_speckle")
-        .expect("an action for the named effect");
+    let action = action_for(&before, "lidar.fmcw_speckle");
     let cmd = action.command.as_deref().unwrap();
     assert!(cmd.contains("--enable lidar.fmcw_speckle"), "{cmd}");
     let after = run_with(&args("with", &["lidar.fmcw_speckle"], &[]), None).unwrap();

@@ -10,3 +10,22 @@ pub enum ModelError {
     #[error("invalid input: {0}")]
     Input(String),
 }
+
+/// `Ok` where `v` is finite and in `[lo, hi]`, else the configuration error
+/// ``"`{prefix}.{key}` must be in [{lo}, {hi}], got {v}"``: the range check of the
+/// configurations' `validate` methods (`prefix` is the section, e.g. `camera.recognition`).
+pub(crate) fn check_range(
+    prefix: &str,
+    key: &str,
+    v: f64,
+    lo: f64,
+    hi: f64,
+) -> Result<(), ModelError> {
+    if v.is_finite() && v >= lo && v <= hi {
+        Ok(())
+    } else {
+        Err(ModelError::Config(format!(
+            "`{prefix}.{key}` must be in [{lo}, {hi}], got {v}"
+        )))
+    }
+}

@@ -359,6 +359,28 @@ pub struct Written {
     pub dropped_frames: usize,
 }
 
+/// Writes the campaign's `toml` as `consistency.toml` into `dir` and names what was written (the
+/// model trace `model.osi` beside it, the hidden case and its value, the frames logged and lost).
+fn write_campaign(
+    dir: &Path,
+    toml: String,
+    hidden: &str,
+    hidden_value: Option<f64>,
+    frames: usize,
+    dropped: usize,
+) -> anyhow::Result<Written> {
+    let meta = dir.join("consistency.toml");
+    std::fs::write(&meta, toml)?;
+    Ok(Written {
+        meta,
+        model_trace: dir.join("model.osi"),
+        hidden: hidden.into(),
+        hidden_value,
+        frames,
+        dropped_frames: dropped,
+    })
+}
+
 fn db(x: f64) -> f64 {
     10.0 * x.log10()
 }
@@ -951,20 +973,18 @@ pub fn radar_campaign_surveyed(
         pos_sigma,
         &trihedral_targets_toml(&targets),
     );
-    let meta = dir.join("consistency.toml");
-    std::fs::write(&meta, toml)?;
-    Ok(Written {
-        meta,
-        model_trace: dir.join("model.osi"),
-        hidden: case.name().into(),
-        hidden_value: match case {
+    write_campaign(
+        dir,
+        toml,
+        case.name(),
+        match case {
             RadarCase::YawMisalignment => Some(yaw_true.to_degrees()),
             RadarCase::TimeOffset => Some(1e3 * clock_s),
             _ => None,
         },
-        frames: frame as usize,
-        dropped_frames: dropped,
-    })
+        frame as usize,
+        dropped,
+    )
 }
 
 /// The power semantics of the trihedral campaigns: the SNR, or an RCS estimate assuming the
@@ -1370,16 +1390,14 @@ pub fn radar_calibration_campaign(
         pos_sigma,
         &trihedral_targets_toml(&targets),
     );
-    let meta = dir.join("consistency.toml");
-    std::fs::write(&meta, toml)?;
-    Ok(Written {
-        meta,
-        model_trace: dir.join("model.osi"),
-        hidden: case.name().into(),
-        hidden_value: (case != CalibrationCase::Null).then(|| yaw_true.to_degrees()),
-        frames: frame as usize,
-        dropped_frames: dropped,
-    })
+    write_campaign(
+        dir,
+        toml,
+        case.name(),
+        (case != CalibrationCase::Null).then(|| yaw_true.to_degrees()),
+        frame as usize,
+        dropped,
+    )
 }
 
 /// Hidden-effect cases of the road-clutter campaigns (a parked radar 0.5 m over asphalt, three
@@ -1579,16 +1597,14 @@ pub fn radar_clutter_campaign(case: ClutterCase, seed: u64, dir: &Path) -> anyho
         pos_sigma,
         &trihedral_targets_toml(&targets),
     );
-    let meta = dir.join("consistency.toml");
-    std::fs::write(&meta, toml)?;
-    Ok(Written {
-        meta,
-        model_trace: dir.join("model.osi"),
-        hidden: case.name().into(),
-        hidden_value: (case == ClutterCase::RoadClutter).then_some(gamma_db),
-        frames: frame as usize,
-        dropped_frames: dropped,
-    })
+    write_campaign(
+        dir,
+        toml,
+        case.name(),
+        (case == ClutterCase::RoadClutter).then_some(gamma_db),
+        frame as usize,
+        dropped,
+    )
 }
 
 /// Hidden-effect cases of the board campaigns (rough metal boards turned 4–48° from the line of
@@ -1751,16 +1767,14 @@ pub fn radar_board_campaign(case: BoardCase, seed: u64, dir: &Path) -> anyhow::R
         pos_sigma,
         &targets,
     );
-    let meta = dir.join("consistency.toml");
-    std::fs::write(&meta, toml)?;
-    Ok(Written {
-        meta,
-        model_trace: dir.join("model.osi"),
-        hidden: case.name().into(),
-        hidden_value: (case == BoardCase::DiffuseScattering).then_some(sigma_h * 1e3),
-        frames: frame as usize,
-        dropped_frames: dropped,
-    })
+    write_campaign(
+        dir,
+        toml,
+        case.name(),
+        (case == BoardCase::DiffuseScattering).then_some(sigma_h * 1e3),
+        frame as usize,
+        dropped,
+    )
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -2221,16 +2235,7 @@ fn finish_board_campaign(
             b.id, b.refl_label, b.width, b.height, b.refl_label
         );
     }
-    let meta = dir.join("consistency.toml");
-    std::fs::write(&meta, toml)?;
-    Ok(Written {
-        meta,
-        model_trace: dir.join("model.osi"),
-        hidden: hidden.into(),
-        hidden_value: None,
-        frames: frames as usize,
-        dropped_frames: dropped,
-    })
+    write_campaign(dir, toml, hidden, None, frames as usize, dropped)
 }
 
 /// Writes a LiDAR campaign for `case` and `seed` into `dir`.
@@ -2928,20 +2933,18 @@ kind = "car"
         mx = HOST_LEN / 2.0,
         mz = h_s - HOST_H / 2.0,
     );
-    let meta = dir.join("consistency.toml");
-    std::fs::write(&meta, toml)?;
-    Ok(Written {
-        meta,
-        model_trace: dir.join("model.osi"),
-        hidden: case.name().into(),
-        hidden_value: match case {
+    write_campaign(
+        dir,
+        toml,
+        case.name(),
+        match case {
             CameraCase::YawMisalignment => Some(yaw_true.to_degrees()),
             CameraCase::PitchMisalignment => Some(pitch_true.to_degrees()),
             CameraCase::TimeOffset => Some(1e3 * clock_s),
             CameraCase::Windshield => glass.map(|g| 1e3 * g.wedge_rad),
             CameraCase::Null => None,
         },
-        frames: frame as usize,
-        dropped_frames: dropped,
-    })
+        frame as usize,
+        dropped,
+    )
 }

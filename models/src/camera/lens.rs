@@ -318,11 +318,7 @@ fn check_finite(key: &str, v: f64) -> Result<(), ModelError> {
 }
 
 fn check_range(key: &str, v: f64, lo: f64, hi: f64) -> Result<(), ModelError> {
-    if v.is_finite() && v >= lo && v <= hi {
-        Ok(())
-    } else {
-        Err(config_err(key, format!("must be in [{lo}, {hi}], got {v}")))
-    }
+    crate::error::check_range("camera.lens", key, v, lo, hi)
 }
 
 impl LensConfig {

@@ -101,7 +101,9 @@ use crate::environment::lamps::{photopic_v, planck_radiance_w_m2_sr_nm};
 use crate::environment::material::{Band, MaterialDb, RETROREFLECTION};
 use crate::environment::scene::StaticElement;
 use crate::environment::sky::{ClearSkyInput, spectrl2};
-use crate::environment::sky_distribution::{CieSkyType, SKY_DISTRIBUTION, SkyDistribution};
+use crate::environment::sky_distribution::{
+    CieSkyType, SKY_DISTRIBUTION, SkyDistribution, SkyDistributionCache,
+};
 use crate::environment::sun::SUN_RADIUS_DEG;
 use crate::environment::weather;
 use crate::error::ModelError;
@@ -373,7 +375,7 @@ pub struct Renderer {
     /// `env.sky_distribution` on.
     sky_shape: bool,
     /// The sky distribution of the last sun direction (recomputed when the sun moves).
-    sky: Option<(DVec3, SkyDistribution)>,
+    sky: SkyDistributionCache,
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -603,7 +605,7 @@ impl Renderer {
             id_map: HashMap::new(),
             sweep: Sweep::new(),
             sky_shape: effects.is_on(&SKY_DISTRIBUTION),
-            sky: None,
+            sky: SkyDistributionCache::new(),
         })
     }
 
@@ -647,20 +649,10 @@ impl Renderer {
         });
         let sun_up = el_deg > 0.0;
         // The sky's radiance distribution (planned once per sun direction).
-        if !self
-            .sky
-            .as_ref()
-            .is_some_and(|(d, _)| d.dot(sun_dir) > 1.0 - 1e-12)
-        {
-            let dist = if self.sky_shape {
-                let ty = CieSkyType::standard(self.config.sky_type)
-                    .expect("sky_type validated to 1..=15");
-                SkyDistribution::cie(ty, sun_dir)
-            } else {
-                SkyDistribution::isotropic()
-            };
-            self.sky = Some((sun_dir, dist));
-        }
+        let ty = self.sky_shape.then(|| {
+            CieSkyType::standard(self.config.sky_type).expect("sky_type validated to 1..=15")
+        });
+        self.sky.plan(sun_dir, ty);
         plan_lamps(
             &mut self.lamp_plan,
             &self.config.lamps,
@@ -864,7 +856,7 @@ impl Renderer {
             weights,
             sigma,
             fog,
-            sky: &self.sky.as_ref().expect("planned above").1,
+            sky: self.sky.planned().expect("planned above"),
             sun_dir,
             sun_up,
             cos_sun_radius: SUN_RADIUS_DEG.to_radians().cos(),

@@ -319,6 +319,46 @@ impl SkyDistribution {
     }
 }
 
+/// The sky distribution of the last sun direction, for a sensor that plans it per frame: planned
+/// once per sun position and reused while the sun direction is unchanged (the cosine between the
+/// two above 1 − 1e-12). The camera's renderer and the LiDAR's solar background keep one each.
+#[derive(Debug, Clone, Default)]
+pub struct SkyDistributionCache {
+    /// The sun direction the distribution was planned for, and the distribution.
+    planned: Option<(DVec3, SkyDistribution)>,
+}
+
+impl SkyDistributionCache {
+    /// An empty cache (the first [`Self::plan`] plans).
+    pub fn new() -> SkyDistributionCache {
+        SkyDistributionCache::default()
+    }
+
+    /// The distribution for the sun in direction `sun_dir`: the CIE general sky `ty` for it
+    /// ([`SkyDistribution::cie`]; `None`: [`SkyDistribution::isotropic`]), planned anew where the
+    /// sun has moved since the last plan, else the cached one. `ty` is taken to be the same on
+    /// every call.
+    pub fn plan(&mut self, sun_dir: DVec3, ty: Option<CieSkyType>) -> &SkyDistribution {
+        if !self
+            .planned
+            .as_ref()
+            .is_some_and(|(d, _)| d.dot(sun_dir) > 1.0 - 1e-12)
+        {
+            let dist = match ty {
+                Some(ty) => SkyDistribution::cie(ty, sun_dir),
+                None => SkyDistribution::isotropic(),
+            };
+            self.planned = Some((sun_dir, dist));
+        }
+        &self.planned.as_ref().expect("planned above").1
+    }
+
+    /// The distribution of the last [`Self::plan`] (`None` before the first).
+    pub fn planned(&self) -> Option<&SkyDistribution> {
+        self.planned.as_ref().map(|(_, d)| d)
+    }
+}
+
 /// Midpoint quadrature of the upper hemisphere: (solid angle, direction) per cell, uniform in
 /// μ = cos Z and azimuth (equal-area cells).
 fn quadrature() -> Vec<(f64, DVec3)> {

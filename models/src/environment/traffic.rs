@@ -122,6 +122,36 @@ fn sign_type(ty: Option<i32>) -> Option<SignType> {
     ty.and_then(|t| SignType::try_from(t).ok())
 }
 
+/// Mandatory signs (Vienna Convention class D): prescribed directions, roundabout, pass left or
+/// right, and the paths reserved to bicycles, horse riders or pedestrians. Round and blue, so
+/// [`sign_shape`] and [`sign_colour`] both take them from here.
+fn is_mandatory(t: SignType) -> bool {
+    use SignType as T;
+    matches!(
+        t,
+        T::PrescribedLeftTurn
+            | T::PrescribedRightTurn
+            | T::PrescribedStraight
+            | T::PrescribedRightWay
+            | T::PrescribedLeftWay
+            | T::PrescribedRightTurnAndStraight
+            | T::PrescribedLeftTurnAndStraight
+            | T::PrescribedLeftTurnAndRightTurn
+            | T::PrescribedLeftTurnRightTurnAndStraight
+            | T::Roundabout
+            | T::PassLeft
+            | T::PassRight
+            | T::BicyclesOnly
+            | T::HorseRidersOnly
+            | T::PedestriansOnly
+            | T::BicyclesPedestriansSharedOnly
+            | T::BicyclesPedestriansSeparatedLeftOnly
+            | T::BicyclesPedestriansSeparatedRightOnly
+            | T::PrescribedUTurnLeft
+            | T::PrescribedUTurnRight
+    )
+}
+
 /// Plate outline of a main sign by its OSI type (Vienna Convention shapes, cheap classes): warning
 /// signs and "right of way at the next intersection" triangles; give way an inverted triangle; stop
 /// an octagon; priority road a diamond; prohibitions, restrictions, mandatory directions, speed
@@ -213,26 +243,7 @@ pub fn sign_shape(ty: Option<i32>) -> SignShape {
         | T::NoParking
         | T::AdvisorySpeedLimitBegin
         | T::AdvisorySpeedLimitEnd => SignShape::Circle,
-        T::PrescribedLeftTurn
-        | T::PrescribedRightTurn
-        | T::PrescribedStraight
-        | T::PrescribedRightWay
-        | T::PrescribedLeftWay
-        | T::PrescribedRightTurnAndStraight
-        | T::PrescribedLeftTurnAndStraight
-        | T::PrescribedLeftTurnAndRightTurn
-        | T::PrescribedLeftTurnRightTurnAndStraight
-        | T::Roundabout
-        | T::PassLeft
-        | T::PassRight
-        | T::BicyclesOnly
-        | T::HorseRidersOnly
-        | T::PedestriansOnly
-        | T::BicyclesPedestriansSharedOnly
-        | T::BicyclesPedestriansSeparatedLeftOnly
-        | T::BicyclesPedestriansSeparatedRightOnly
-        | T::PrescribedUTurnLeft
-        | T::PrescribedUTurnRight => SignShape::Circle,
+        t if is_mandatory(t) => SignShape::Circle,
         _ => SignShape::Rectangle,
     }
 }
@@ -249,27 +260,8 @@ pub fn sign_colour(ty: Option<i32>) -> SignColour {
     };
     match t {
         T::Stop | T::DoNotEnter => SignColour::Red,
-        T::PrescribedLeftTurn
-        | T::PrescribedRightTurn
-        | T::PrescribedStraight
-        | T::PrescribedRightWay
-        | T::PrescribedLeftWay
-        | T::PrescribedRightTurnAndStraight
-        | T::PrescribedLeftTurnAndStraight
-        | T::PrescribedLeftTurnAndRightTurn
-        | T::PrescribedLeftTurnRightTurnAndStraight
-        | T::Roundabout
-        | T::PassLeft
-        | T::PassRight
-        | T::BicyclesOnly
-        | T::HorseRidersOnly
-        | T::PedestriansOnly
-        | T::BicyclesPedestriansSharedOnly
-        | T::BicyclesPedestriansSeparatedLeftOnly
-        | T::BicyclesPedestriansSeparatedRightOnly
-        | T::PrescribedUTurnLeft
-        | T::PrescribedUTurnRight
-        | T::MinimumSpeedBegin
+        t if is_mandatory(t) => SignColour::Blue,
+        T::MinimumSpeedBegin
         | T::MinimumSpeedEnd
         | T::BusLane
         | T::BusLaneBegin

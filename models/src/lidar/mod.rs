@@ -67,7 +67,7 @@ use crate::effects::{EffectInfo, Effects};
 use crate::environment::material::{self, MaterialDb, MaterialEffects};
 use crate::environment::scene::{Scene, StaticElement};
 use crate::environment::sky_distribution::{
-    CieSkyType, DEFAULT_CIE_SKY_TYPE, SKY_DISTRIBUTION, SkyDistribution,
+    CieSkyType, DEFAULT_CIE_SKY_TYPE, SKY_DISTRIBUTION, SkyDistributionCache,
 };
 use crate::environment::sun;
 use crate::frames::{Pose, Spherical};
@@ -847,8 +847,8 @@ pub struct LidarPhysics {
     points: Vec<LidarPoint>,
     /// The recognised moving objects of the cycle (swapped into the output by `emit`).
     moving: Vec<osi3::DetectedMovingObject>,
-    /// The sky radiance distribution and the sun direction it was planned for.
-    sky: Option<(DVec3, SkyDistribution)>,
+    /// The sky radiance distribution of the last sun direction.
+    sky: SkyDistributionCache,
 }
 
 impl LidarPhysics {
@@ -891,7 +891,7 @@ impl Physics for LidarPhysics {
             recognition,
             points: Vec::new(),
             moving: Vec::new(),
-            sky: None,
+            sky: SkyDistributionCache::new(),
         })
     }
 
@@ -917,20 +917,11 @@ impl Physics for LidarPhysics {
             let sun_dir = sun::sun_direction(gt_env);
             // `env.sky_distribution`: the CIE standard clear sky for this sun (planned once per
             // sun position), else the isotropic sky.
-            if !self
-                .sky
-                .as_ref()
-                .is_some_and(|(d, _)| d.dot(sun_dir) > 1.0 - 1e-12)
-            {
-                let dist = if self.effects.is_on(&SKY_DISTRIBUTION) {
-                    let ty = CieSkyType::standard(DEFAULT_CIE_SKY_TYPE).expect("CIE type 12");
-                    SkyDistribution::cie(ty, sun_dir)
-                } else {
-                    SkyDistribution::isotropic()
-                };
-                self.sky = Some((sun_dir, dist));
-            }
-            let sky = self.sky.as_ref().map(|(_, d)| d.clone()).expect("planned");
+            let ty = self
+                .effects
+                .is_on(&SKY_DISTRIBUTION)
+                .then(|| CieSkyType::standard(DEFAULT_CIE_SKY_TYPE).expect("CIE type 12"));
+            let sky = self.sky.plan(sun_dir, ty).clone();
             SolarPlan::new(
                 &self.lidar.signal,
                 sun_dir,

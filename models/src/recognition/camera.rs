@@ -61,7 +61,7 @@ use rand::{Rng as _, SeedableRng as _, rngs::SmallRng};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::error::ModelError;
+use crate::error::{ModelError, check_range};
 use crate::frames::{
     SensorFrame, moving_object_pose, rotation_from_rpy, rpy_from_rotation, rpy_to_osi, vec3_to_osi,
 };
@@ -138,15 +138,8 @@ impl Default for CameraRecognitionConfig {
 
 impl CameraRecognitionConfig {
     pub fn validate(&self) -> Result<(), ModelError> {
-        let check = |key: &str, v: f64, lo: f64, hi: f64| {
-            if v.is_finite() && v >= lo && v <= hi {
-                Ok(())
-            } else {
-                Err(ModelError::Config(format!(
-                    "`camera.recognition.{key}` must be in [{lo}, {hi}], got {v}"
-                )))
-            }
-        };
+        let check =
+            |key: &str, v: f64, lo: f64, hi: f64| check_range("camera.recognition", key, v, lo, hi);
         check("min_visible_fraction", self.min_visible_fraction, 0.0, 1.0)?;
         check("min_height_px", self.min_height_px, 0.0, 1e5)?;
         check("min_contrast", self.min_contrast, 0.0, 1e3)?;

@@ -78,7 +78,7 @@ use rand::{Rng as _, SeedableRng as _, rngs::SmallRng};
 use serde::{Deserialize, Serialize};
 
 use super::camera::{CameraRecognitionInput, Stats, ring_contrast};
-use crate::error::ModelError;
+use crate::error::{ModelError, check_range};
 use crate::frames::{rotation_from_rpy, rpy_from_rotation, rpy_to_osi, vec3_to_osi};
 use crate::rng::splitmix64;
 
@@ -160,13 +160,7 @@ impl Default for TrafficRecognitionConfig {
 impl TrafficRecognitionConfig {
     pub fn validate(&self) -> Result<(), ModelError> {
         let check = |key: &str, v: f64, lo: f64, hi: f64| {
-            if v.is_finite() && v >= lo && v <= hi {
-                Ok(())
-            } else {
-                Err(ModelError::Config(format!(
-                    "`camera.recognition.traffic.{key}` must be in [{lo}, {hi}], got {v}"
-                )))
-            }
+            check_range("camera.recognition.traffic", key, v, lo, hi)
         };
         check("light_min_px", self.light_min_px as f64, 1.0, 1e6)?;
         check("light_lit_ratio", self.light_lit_ratio, 1.0, 1e6)?;

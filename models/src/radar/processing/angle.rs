@@ -926,13 +926,36 @@ const LANES: usize = 8;
 /// FMA kernel where [`crate::cpu::avx2_fma`] allows (fused: the results differ by rounding).
 #[inline]
 fn dot_conj(a: (&[f64], &[f64]), b: (&[f64], &[f64])) -> Complex64 {
+    let s = dot_sums::<true>(a, b);
+    Complex64::new(reduce(s[0]) + reduce(s[1]), reduce(s[2]) - reduce(s[3]))
+}
+
+/// `Re Σ_k conj(a_k) b_k` (as [`dot_conj`]).
+#[inline]
+fn dot_re(a: (&[f64], &[f64]), b: (&[f64], &[f64])) -> f64 {
+    let s = dot_sums::<false>(a, b);
+    reduce(s[0]) + reduce(s[1])
+}
+
+/// The partial sums of [`dot_conj`] (`IM`: all four, `Σ ar br, Σ ai bi, Σ ar bi, Σ ai br`) or of
+/// [`dot_re`] (the first two; the others stay zero), LANES each: [`dot_avx2`] where
+/// [`crate::cpu::avx2_fma`] allows, else [`dot_portable`].
+#[inline(always)]
+fn dot_sums<const IM: bool>(a: (&[f64], &[f64]), b: (&[f64], &[f64])) -> [[f64; LANES]; 4] {
     #[cfg(target_arch = "x86_64")]
     if crate::cpu::avx2_fma() {
         // SAFETY: the CPU supports AVX2 and FMA (run-time check).
-        let s = unsafe { dot_avx2::<true>(a, b) };
-        return Complex64::new(reduce(s[0]) + reduce(s[1]), reduce(s[2]) - reduce(s[3]));
+        return unsafe { dot_avx2::<IM>(a, b) };
     }
-    let ((ar, ai), (br, bi)) = (a, b);
+    dot_portable::<IM>(a, b)
+}
+
+/// The partial sums of [`dot_sums`] without FMA (plain multiply and add).
+#[inline(always)]
+fn dot_portable<const IM: bool>(
+    (ar, ai): (&[f64], &[f64]),
+    (br, bi): (&[f64], &[f64]),
+) -> [[f64; LANES]; 4] {
     let (mut s1, mut s2) = ([0f64; LANES], [0f64; LANES]);
     let (mut s3, mut s4) = ([0f64; LANES], [0f64; LANES]);
     let q = ar.chunks_exact(LANES);
@@ -945,53 +968,25 @@ fn dot_conj(a: (&[f64], &[f64]), b: (&[f64], &[f64])) -> Complex64 {
         for l in 0..LANES {
             s1[l] += ar[l] * br[l];
             s2[l] += ai[l] * bi[l];
-            s3[l] += ar[l] * bi[l];
-            s4[l] += ai[l] * br[l];
+            if IM {
+                s3[l] += ar[l] * bi[l];
+                s4[l] += ai[l] * br[l];
+            }
         }
     }
     let n = ar.len();
     for k in n - tail..n {
         s1[0] += ar[k] * br[k];
         s2[0] += ai[k] * bi[k];
-        s3[0] += ar[k] * bi[k];
-        s4[0] += ai[k] * br[k];
-    }
-    Complex64::new(reduce(s1) + reduce(s2), reduce(s3) - reduce(s4))
-}
-
-/// `Re Σ_k conj(a_k) b_k` (as [`dot_conj`]).
-#[inline]
-fn dot_re(a: (&[f64], &[f64]), b: (&[f64], &[f64])) -> f64 {
-    #[cfg(target_arch = "x86_64")]
-    if crate::cpu::avx2_fma() {
-        // SAFETY: the CPU supports AVX2 and FMA (run-time check).
-        let s = unsafe { dot_avx2::<false>(a, b) };
-        return reduce(s[0]) + reduce(s[1]);
-    }
-    let ((ar, ai), (br, bi)) = (a, b);
-    let (mut s1, mut s2) = ([0f64; LANES], [0f64; LANES]);
-    let q = ar.chunks_exact(LANES);
-    let tail = q.remainder().len();
-    for (((ar, ai), br), bi) in q
-        .zip(ai.chunks_exact(LANES))
-        .zip(br.chunks_exact(LANES))
-        .zip(bi.chunks_exact(LANES))
-    {
-        for l in 0..LANES {
-            s1[l] += ar[l] * br[l];
-            s2[l] += ai[l] * bi[l];
+        if IM {
+            s3[0] += ar[k] * bi[k];
+            s4[0] += ai[k] * br[k];
         }
     }
-    let n = ar.len();
-    for k in n - tail..n {
-        s1[0] += ar[k] * br[k];
-        s2[0] += ai[k] * bi[k];
-    }
-    reduce(s1) + reduce(s2)
+    [s1, s2, s3, s4]
 }
 
-/// The partial sums of [`dot_conj`] (`IM`: all four, `Σ ar br, Σ ai bi, Σ ar bi, Σ ai br`) or of
-/// [`dot_re`] (the first two), LANES each, with AVX2 + FMA.
+/// The partial sums of [`dot_sums`] with AVX2 + FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 // The two halves of each partial sum, indexed alike: index loops are the clearest form.
