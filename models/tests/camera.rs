@@ -704,3 +704,81 @@ fn windshield_transmits_and_reflects_the_dashboard_per_the_fresnel_slab() {
         r1 / r2
     );
 }
+
+/// Depends on: renderer, windshield, recognition, feature-data output. A windshield with an 8 mrad
+/// wedge turns a ray at elevation e up by δ(e) = w·(√(n² − sin²θ)/cos θ − 1), θ = 62° − e (written
+/// out here; 0.75° on the axis, more below it), so each edge of the car's detection box comes out
+/// lower by the δ of its elevation. A camera calibrated through the same glass
+/// (`calibrated_through`) takes the axis' δ(0) into its orientation: its box is lower only by the
+/// rest, δ(e) − δ(0), and its ground-plane distance much nearer the glass-free one.
+#[test]
+fn windshield_wedge_lowers_the_detections_unless_calibrated_through_the_glass() {
+    let v = view(
+        vec![car(7, [22.25, 0.0, 0.75])],
+        Vec::new(),
+        sun(PI / 2.0, 40f64.to_radians()),
+        0.0,
+    );
+    // (box edge elevations deg, DIVP distance m) of the one detection.
+    let detect = |windshield: Option<serde_json::Value>| -> ([f64; 2], f64) {
+        let mut cam = serde_json::json!({"recognition": {"random_draw": false}});
+        if let Some(w) = windshield {
+            cam["windshield"] = w;
+        }
+        let c = config(40.0, cam, &["camera.distortion", "camera.motion_blur"]);
+        let mut s = build_sensor(c).expect("camera");
+        let out = run(s.as_mut(), &v);
+        let fd = out.sensor_data.feature_data.as_ref().expect("feature data");
+        let cd = &fd.camera_sensor[0];
+        assert_eq!(cd.detection.len(), 1, "one detection: {:?}", cd.detection);
+        let el = |k: usize| {
+            cd.point[k]
+                .point
+                .as_ref()
+                .unwrap()
+                .elevation
+                .unwrap()
+                .to_degrees()
+        };
+        let d = out.perception.camera.as_ref().unwrap().object[0]
+            .longitudinal_distance_m
+            .unwrap();
+        ([el(0), el(1)], d)
+    };
+    let (n, w) = (1.52f64, 8e-3);
+    let delta = |e_deg: f64| {
+        let th = (62.0 - e_deg).to_radians();
+        (w * ((n * n - th.sin().powi(2)).sqrt() / th.cos() - 1.0)).to_degrees()
+    };
+    let centre = |e: [f64; 2]| 0.5 * (e[0] + e[1]);
+    let (plain, d_plain) = detect(None);
+    let (wedged, d_wedged) = detect(Some(serde_json::json!({"wedge_mrad": 8.0})));
+    let (calibrated, d_cal) = detect(Some(
+        serde_json::json!({"wedge_mrad": 8.0, "calibrated_through": true}),
+    ));
+    let want = 0.5 * (delta(plain[0]) + delta(plain[1]));
+    eprintln!(
+        "box centre elevation: plain {:.3}°, wedge {:.3}°, calibrated {:.3}° (δ at the edges \
+         {want:.3}°, on the axis {:.3}°); distance {d_plain:.2} / {d_wedged:.2} / {d_cal:.2} m",
+        centre(plain),
+        centre(wedged),
+        centre(calibrated),
+        delta(0.0)
+    );
+    let px = 40.0 / W as f64;
+    let shift = centre(plain) - centre(wedged);
+    assert!((shift - want).abs() < px, "shift {shift:.3}° vs {want:.3}°");
+    let rest = centre(plain) - centre(calibrated);
+    assert!(
+        (rest - (want - delta(0.0))).abs() < px,
+        "calibrated: shift {rest:.3}° vs {:.3}°",
+        want - delta(0.0)
+    );
+    // Uncalibrated, the lowered box bottom reads as a nearer ground contact; calibrated, most of
+    // that error is gone.
+    assert!(d_wedged < d_plain - 1.0, "{d_wedged} vs {d_plain}");
+    assert!(
+        (d_cal - d_plain).abs() < 0.5 * (d_wedged - d_plain).abs(),
+        "{d_cal} vs {d_plain} (uncalibrated {d_wedged})"
+    );
+}

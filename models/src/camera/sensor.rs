@@ -1,6 +1,6 @@
 //! The physical camera as a [`SensorModel`]: configuration, one step of the chain, OSI output.
 
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 use osiris_proto::{osi3, perception};
 use prost::Message as _;
 use serde::{Deserialize, Serialize};
@@ -256,6 +256,16 @@ impl CameraChain {
             cfa,
             windshield,
         })
+    }
+}
+
+impl CameraChain {
+    /// Where the camera believes a lens ray looks: `calibration · ray` (a camera calibrated
+    /// through its windshield, `WindshieldPlan::calibration`; the identity otherwise).
+    fn calibration(&self) -> DMat3 {
+        self.windshield
+            .as_ref()
+            .map_or(DMat3::IDENTITY, |p| p.calibration)
     }
 }
 
@@ -523,6 +533,9 @@ impl Physics for CameraPhysics {
             .closest_hit(&Ray::new(origin, DVec3::NEG_Z).with_t_max(50.0))
             .map(|hit| hit.distance_m)
             .unwrap_or_else(|| origin.z.max(0.1));
+        // A camera calibrated through its windshield believes each lens ray looks where the glass
+        // turned its optical axis (`WindshieldPlan::calibration`; the identity otherwise).
+        let calibration = chain.calibration();
         let t = std::time::Instant::now();
         let rec_in = CameraRecognitionInput {
             aux: b.render.aux.objects(),
@@ -530,7 +543,7 @@ impl Physics for CameraPhysics {
             lens: &chain.lens,
             ground_truth: gt,
             frame: &frame.frame,
-            reported_rotation: frame.nominal_frame.pose.rotation,
+            reported_rotation: frame.nominal_frame.pose.rotation * calibration,
             camera_height_m,
             time_s: frame.time_s,
             seed,
@@ -583,6 +596,7 @@ impl Physics for CameraPhysics {
         let b = &mut self.buffers;
         let row_time_s = self.row_time_s;
         let temperature_c = chain.resolved.temperature_c;
+        let calibration = chain.calibration();
         // Outputs.
         let cfa = match chain.cfa {
             Cfa::Rggb => ColorFilterArray::CfaRggb,
@@ -654,7 +668,8 @@ impl Physics for CameraPhysics {
             let first = points.len();
             let corners = [(u0, v0), (u1, v0), (u1, v1), (u0, v1)]
                 .into_iter()
-                .filter_map(|(u, v)| chain.lens.unproject(glam::DVec2::new(u, v)));
+                .filter_map(|(u, v)| chain.lens.unproject(glam::DVec2::new(u, v)))
+                .map(|d| calibration * d);
             let Some(corners) = crate::semantics::box_corners(corners, range_m) else {
                 continue;
             };

@@ -33,7 +33,7 @@
 //!   through the glass at the optical axis' incidence θ_0; the ½ is GUESSED, a horizontal plane
 //!   under a raked windshield).
 
-use glam::{DVec3, Vec3};
+use glam::{DMat3, DQuat, DVec3, Vec3};
 use serde::{Deserialize, Serialize};
 
 use crate::effects::EffectInfo;
@@ -96,6 +96,11 @@ pub struct WindshieldConfig {
     /// 0: plane-parallel. Head-up-display windshields carry a wedge of ≈ 0.3–0.7 mrad; thickness
     /// variation and curvature of an ordinary laminate act as a local wedge of the same order.
     pub wedge_mrad: f64,
+    /// The camera's extrinsic calibration was done through this windshield (an end-of-line target
+    /// calibration in the car): the glass's turn of the optical axis is part of the orientation
+    /// the camera believes, so its outputs keep only the glass's variation over the field and the
+    /// slab's displacement. `false`: calibrated without the glass (its full deviation shows).
+    pub calibrated_through: bool,
 }
 
 impl Default for WindshieldConfig {
@@ -108,6 +113,7 @@ impl Default for WindshieldConfig {
             internal_transmittance: 0.88,
             dashboard_reflectance: 0.05,
             wedge_mrad: 0.0,
+            calibrated_through: false,
         }
     }
 }
@@ -237,6 +243,10 @@ pub struct WindshieldPlan {
     /// Per pixel: ray directions after the glass, unit, sensor frame (empty without
     /// `camera.windshield_refraction`; equal to the lens rays for parallel faces).
     pub directions: Vec<Vec3>,
+    /// Where the camera believes a lens ray looks, in its sensor frame: `calibration · ray`. The
+    /// rotation taking the optical axis to its direction after the glass when the camera was
+    /// calibrated through it (`calibrated_through`, refraction on); otherwise the identity.
+    pub calibration: DMat3,
     /// Transmittance of the sunlight and skylight reaching the dashboard.
     config: WindshieldConfig,
 }
@@ -251,8 +261,15 @@ impl WindshieldPlan {
         dashboard: bool,
     ) -> WindshieldPlan {
         let n = config.normal();
+        let calibration = match config.refract(DVec3::X) {
+            Some(r) if refraction && config.calibrated_through => {
+                DMat3::from_quat(DQuat::from_rotation_arc(DVec3::X, r.direction))
+            }
+            _ => DMat3::IDENTITY,
+        };
         let mut plan = WindshieldPlan {
             config: config.clone(),
+            calibration,
             ..WindshieldPlan::default()
         };
         for r in rays {
