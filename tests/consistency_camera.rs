@@ -259,7 +259,8 @@ fn dashboard_veil_on_a_grey_chart_is_found() {
                 .find(|e| e.id == "camera.dashboard_reflection" && e.accepted)
                 .map_or(f64::NAN, |e| e.params[0].value);
             eprintln!("veil fitted {fitted:.5}, hidden {hidden:.5}");
-            if !ok || s.status == "CONSISTENT" || (fitted - hidden).abs() > 0.05 * hidden {
+            // The signature averages r before the slab sum: within 10 % of the generator's.
+            if !ok || s.status == "CONSISTENT" || (fitted - hidden).abs() > 0.1 * hidden {
                 missed.push(format!(
                     "seed {seed} at {m}×: {} {acc:?}, veil {fitted} vs {hidden}",
                     s.status
@@ -572,13 +573,27 @@ fn camera_catalogue_parses_with_known_switches_and_exact_signatures() {
     x[3] = 32.0;
     let dc = get("camera.dark_current").eval(&x, &[1000.0, 7.0]);
     assert!((dc - 20.0).abs() < 1e-9, "{dc}");
-    // A veil of 2 % of a white's luminance on a 30 % patch giving 3000 DN: a white there gives
-    // 10 000 DN, so the veil adds 200 DN; nothing on a dark frame or an ROI of unknown reflectance.
+    // A dashboard of 2 % of a white's luminance mirrored in the glass, on a 30 % patch giving
+    // 3000 DN (a white there gives 10 000 DN), at field angle 30° on the horizontal (position
+    // angle 0): incidence cos θ = cos 30°·sin 28°; the lossless slab's 2r/(1 + r) of the
+    // unpolarised interface r. Nothing on a dark frame or an ROI of unknown reflectance.
     let veil = get("camera.dashboard_reflection");
     x[6] = 30.0;
     x[10] = 1.0;
+    x[1] = 0.0;
+    let c = 30f64.to_radians().cos() * 28f64.to_radians().sin();
+    let ct = (1.0 - (1.0 - c * c) / (1.52f64 * 1.52)).sqrt();
+    let r = 0.5
+        * (((c - 1.52 * ct) / (c + 1.52 * ct)).powi(2)
+            + ((1.52 * c - ct) / (1.52 * c + ct)).powi(2));
+    let want = 0.02 * 10_000.0 * 2.0 * r / (1.0 + r);
     let v = veil.eval(&x, &[0.02]);
-    assert!((v - 200.0).abs() < 1e-9, "{v}");
+    // (sin 28° and cos 28° to 7 digits in the signature)
+    assert!((v - want).abs() < 1e-6 * want, "{v} vs {want}");
+    // Towards the bottom of the image (position angle −90°) the glass is seen more obliquely.
+    x[1] = -90.0;
+    assert!(veil.eval(&x, &[0.02]) > 1.5 * v);
+    x[1] = 0.0;
     x[10] = 0.0;
     assert_eq!(veil.eval(&x, &[0.02]), 0.0);
     x[10] = 1.0;
@@ -611,4 +626,112 @@ fn camera_catalogue_parses_with_known_switches_and_exact_signatures() {
             "e {e_deg}°: {got} vs {want}"
         );
     }
+}
+
+/// The closed loop for the dashboard's reflection with osiris's own camera model: "measured" is
+/// the physical camera behind the default windshield with a light dashboard (reflectance 0.5)
+/// looking at the grey chart (`CameraTruth::with_chart`, the patches in the SensorViews), at
+/// another seed, every effect on; re-simulated with `camera.dashboard_reflection` off the workflow
+/// names it from the ROI means (the same added luminance on every patch) with the veil in
+/// fractions of a white; re-simulated with it on, the held-out mean error falls and it is no
+/// longer accepted. The chart itself is checked first: the 90 % patch gives 4.5× the 20 % one.
+#[test]
+fn closed_loop_dashboard_reflection_with_the_osiris_camera_model() {
+    use osiris::consistency::camera::{CameraCampaign, simulate_frames};
+    use osiris::consistency::campaign::Campaign;
+    use osiris::consistency::simulate::model_config;
+    let dir = tempfile::tempdir().unwrap();
+    let design = CameraTruth {
+        exposures_s: vec![0.0001, 0.00025, 0.0005, 0.00075, 0.001],
+        dark_exposures_s: vec![],
+        temperatures_c: vec![40.0],
+        ..CameraTruth::default().with_chart()
+    };
+    let files = write_camera(&dir.path().join("campaign"), &design).unwrap();
+    let model = dir.path().join("model.json");
+    std::fs::write(
+        &model,
+        r#"{"kind": "camera", "mode": "physical", "range_m": 150, "update_cycle_s": 0.1,
+            "fov_horizontal_rad": 1.0471976, "fov_vertical_rad": 0.8,
+            "mounting": {"position_m": [1.9, 0.0, 1.3]},
+            "camera": {"windshield": {"dashboard_reflectance": 0.5}}}"#,
+    )
+    .unwrap();
+    let campaign = Campaign::load(&files.toml).unwrap();
+    let cc = CameraCampaign::load(&campaign, &files.toml).unwrap();
+    let views: Vec<osiris_proto::osi3::SensorView> =
+        osiris::consistency::pairing::read_trace(&files.sensor_view, "SensorView").unwrap();
+    let cfg = model_config(&campaign, Some(&model), &Default::default(), 9_001).unwrap();
+    let mut w = Vec::new();
+    let meas = simulate_frames(&cfg, &cc, &views, &mut w).unwrap_or_else(|e| panic!("{e:#}"));
+    // The chart: mean above black of the 90 % and the 20 % patch in the longest exposure.
+    let last = meas.last().unwrap().as_ref().unwrap();
+    let roi_mean = |k: usize| {
+        let r = cc.rois[k].rect_px;
+        let bl = last.black_level_dn.unwrap_or(0.0);
+        let mut s = 0.0;
+        for y in r[1]..r[1] + r[3] {
+            for x in r[0]..r[0] + r[2] {
+                s += f64::from(last.data[y * last.width + x]) - bl;
+            }
+        }
+        s / (r[2] * r[3]) as f64
+    };
+    let refl = |k: usize| cc.rois[k].reflectance_pct.unwrap();
+    let (k90, k20) = (
+        (0..cc.rois.len()).find(|&k| refl(k) == 90.0).unwrap(),
+        (0..cc.rois.len()).find(|&k| refl(k) == 20.0).unwrap(),
+    );
+    let ratio = roi_mean(k90) / roi_mean(k20);
+    eprintln!(
+        "chart: 90 % patch {:.1} DN, 20 % patch {:.1} DN, ratio {ratio:.2}",
+        roi_mean(k90),
+        roi_mean(k20)
+    );
+    assert!(ratio > 2.5 && ratio < 4.6, "chart ratio {ratio}");
+    for (f, m) in cc.frames.iter().zip(&meas) {
+        let m = m.as_ref().unwrap();
+        write_raw_png(
+            &f.file,
+            &RawFrame {
+                black_level_dn: None,
+                ..m.clone()
+            },
+        )
+        .unwrap();
+    }
+    let run_with = |enable: Vec<String>, disable: Vec<String>, out: &str| {
+        cli::run_with(
+            &ConsistencyArgs {
+                meta: files.toml.clone(),
+                out: dir.path().join(out),
+                simulated: None,
+                model: Some(model.clone()),
+                enable,
+                disable,
+                history: None,
+            },
+            None,
+        )
+        .unwrap()
+    };
+    let veil = "camera.dashboard_reflection";
+    let before = run_with(vec![], vec![veil.into()], "before");
+    eprintln!("before\n{}", describe(&before));
+    assert!(
+        before.accepted().iter().any(|a| a == veil),
+        "{}",
+        describe(&before)
+    );
+    let after = run_with(vec![veil.into()], vec![], "after");
+    eprintln!("after\n{}", describe(&after));
+    let q = "roi_mean_pct";
+    let (b, a) = (before.holdout_error[q], after.holdout_error[q]);
+    eprintln!("held-out {q}: {b:.2} -> {a:.2} %");
+    assert!(a < 0.6 * b, "held-out mean error {b} -> {a}");
+    assert!(
+        !after.accepted().iter().any(|x| x == veil),
+        "{}",
+        describe(&after)
+    );
 }

@@ -44,6 +44,9 @@ pub enum Func {
     Ncdf,
     /// Exponential integral E₁(x) = ∫ₓ^∞ e^{−t}/t dt (x > 0).
     E1,
+    /// `fresnel(c, n)`: unpolarised Fresnel reflectance of one interface from air into index n at
+    /// incidence cosine c, ½(r_s + r_p) (Born & Wolf §1.5).
+    Fresnel,
 }
 
 impl Expr {
@@ -107,6 +110,7 @@ impl Expr {
                     Func::Cosd => a.to_radians().cos(),
                     Func::Min => a.min(args[1].eval(x, p)),
                     Func::Max => a.max(args[1].eval(x, p)),
+                    Func::Fresnel => fresnel(a, args[1].eval(x, p)),
                     Func::Npdf => npdf(a),
                     Func::Ncdf => ncdf(a),
                     Func::E1 => e1(a),
@@ -214,6 +218,7 @@ impl Program {
                         Op::Div => a / b,
                         Op::Pow => a.powf(b),
                         Op::Call2(Func::Min) => a.min(b),
+                        Op::Call2(Func::Fresnel) => fresnel(a, b),
                         _ => a.max(b),
                     };
                 }
@@ -238,7 +243,7 @@ fn call1(f: Func, a: f64) -> f64 {
         Func::Npdf => npdf(a),
         Func::Ncdf => ncdf(a),
         Func::E1 => e1(a),
-        Func::Min | Func::Max => f64::NAN,
+        Func::Min | Func::Max | Func::Fresnel => f64::NAN,
     }
 }
 
@@ -350,6 +355,16 @@ pub use osiris_models::special::erfc;
 /// Standard normal distribution function Φ(x) = erfc(−x/√2)/2.
 pub fn ncdf(x: f64) -> f64 {
     0.5 * erfc(-x / std::f64::consts::SQRT_2)
+}
+
+/// Unpolarised Fresnel reflectance ½(r_s + r_p) of an interface from air into index `n` at
+/// incidence cosine `c` (clamped to [0, 1]).
+fn fresnel(c: f64, n: f64) -> f64 {
+    let c = c.clamp(0.0, 1.0);
+    let ct = (1.0 - (1.0 - c * c) / (n * n)).max(0.0).sqrt();
+    let rs = ((c - n * ct) / (c + n * ct)).powi(2);
+    let rp = ((n * c - ct) / (n * c + ct)).powi(2);
+    0.5 * (rs + rp)
 }
 
 /// Exponential integral E₁(x) = ∫ₓ^∞ e^{−t}/t dt: the power series
@@ -513,6 +528,7 @@ impl Parser<'_> {
                         "npdf" => Func::Npdf,
                         "ncdf" => Func::Ncdf,
                         "e1" => Func::E1,
+                        "fresnel" => Func::Fresnel,
                         other => bail!("signature `{text}`: unknown function `{other}`"),
                     };
                     let mut args = vec![self.sum()?];
@@ -524,7 +540,7 @@ impl Parser<'_> {
                         bail!("signature `{text}`: missing `)` after the arguments of `{name}`");
                     }
                     self.i += 1;
-                    let want = if matches!(func, Func::Min | Func::Max) {
+                    let want = if matches!(func, Func::Min | Func::Max | Func::Fresnel) {
                         2
                     } else {
                         1

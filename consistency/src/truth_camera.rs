@@ -45,7 +45,8 @@ pub enum CameraHidden {
     /// A lower full well: the brightest ROIs clip.
     Saturation,
     /// A veiling luminance over the lit frames (a sunlit dashboard mirrored in the windshield): the
-    /// same added luminance on every patch, a fraction of a 100 % white's; none with the lens
+    /// dashboard's luminance, a fraction of a 100 % white's, times the windshield's reflectance at
+    /// each pixel's incidence (a 28° rake, n = 1.52), the same on every patch; none with the lens
     /// capped. Needs a `chart` design to be told from a gain error.
     DashboardVeil,
     /// Not in the catalogue: rolling-shutter flicker banding, the illumination modulated along the
@@ -228,7 +229,8 @@ struct Side {
     vignetting: f64,
     /// Flicker banding amplitude b.
     banding: f64,
-    /// Veiling luminance over the lit frames, as a fraction of a 100 % white's.
+    /// Luminance of the dashboard mirrored in the windshield, as a fraction of a 100 % white's
+    /// (the veil is this times the glass's reflectance, [`glass_reflectance`]).
     veil: f64,
 }
 
@@ -341,6 +343,25 @@ fn frames(spec: &CameraTruth) -> Vec<FrameSpec> {
     f
 }
 
+/// Reflectance of a windshield (28° rake, index 1.52, two faces, no absorption, incoherent) for
+/// the pinhole ray (60° horizontal field of view) through pixel position (x, y): per
+/// polarisation the interface's r (Fresnel) and the slab's 2r/(1 + r), averaged.
+fn glass_reflectance(spec: &CameraTruth, x: f64, y: f64) -> f64 {
+    let f = 0.5 * spec.width as f64 / 30f64.to_radians().tan();
+    let (dx, dy, dz) = (
+        1.0,
+        -(x - 0.5 * spec.width as f64) / f,
+        -(y - 0.5 * spec.height as f64) / f,
+    );
+    let rake = 28f64.to_radians();
+    let c = (dx * rake.sin() + dz * rake.cos()) / (dx * dx + dy * dy + dz * dz).sqrt();
+    let n = 1.52;
+    let ct = (1.0 - (1.0 - c * c) / (n * n)).sqrt();
+    let rs = ((c - n * ct) / (c + n * ct)).powi(2);
+    let rp = ((n * c - ct) / (n * c + ct)).powi(2);
+    0.5 * (2.0 * rs / (1.0 + rs) + 2.0 * rp / (1.0 + rp))
+}
+
 /// Normalised radius of a pixel position (1 at the image corner).
 fn rho(spec: &CameraTruth, x: f64, y: f64) -> f64 {
     let (cx, cy) = (0.5 * spec.width as f64, 0.5 * spec.height as f64);
@@ -372,7 +393,7 @@ fn expected(
         let lens = RATE_E_S[ch] * ri_base(r) * (1.0 - s.vignetting * r * r) * f.exposure_s;
         (
             lens * (1.0 + s.banding * banding(spec, y, frame_i)) * refl_pct / FIELD_PCT,
-            lens * s.veil * 100.0 / FIELD_PCT,
+            lens * s.veil * glass_reflectance(spec, x, y) * 100.0 / FIELD_PCT,
         )
     };
     let e = (light + veil + dark_rate(s, f.temperature_c) * f.exposure_s).min(s.full_well_e);
@@ -407,8 +428,8 @@ fn hidden_side(spec: &CameraTruth) -> (Side, Side) {
     (meas, model)
 }
 
-/// The veil of the measured camera (fraction of a 100 % white's luminance; 0 unless
-/// [`CameraHidden::DashboardVeil`] is hidden).
+/// The mirrored dashboard's luminance of the measured camera (fraction of a 100 % white's; the
+/// veil is this times the glass's reflectance; 0 unless [`CameraHidden::DashboardVeil`] is hidden).
 pub fn hidden_veil_fraction(spec: &CameraTruth) -> f64 {
     hidden_side(spec).0.veil
 }
@@ -531,7 +552,11 @@ fn render(
                     * (1.0 + s.prnu * maps.0[i]);
                 lens * (1.0 + s.banding * banding(spec, y as f64 + 0.5, frame_i)) * refl_pct[i]
                     / FIELD_PCT
-                    + lens * s.veil * 100.0 / FIELD_PCT
+                    + lens
+                        * s.veil
+                        * glass_reflectance(spec, x as f64 + 0.5, y as f64 + 0.5)
+                        * 100.0
+                        / FIELD_PCT
             };
             let mean_e = light + d;
             let e = if s.shot > 0.0 {
@@ -634,12 +659,73 @@ pub fn flat_field_view(t: f64) -> osi3::SensorView {
 
 /// Writes the SensorView trace of `n` frames at 0.1 s spacing.
 pub fn write_views(path: &Path, n: usize) -> Result<()> {
+    write_views_of(path, n, &[])
+}
+
+/// [`write_views`] with `patches` (a grey chart) in front of the field.
+fn write_views_of(path: &Path, n: usize, patches: &[osi3::StationaryObject]) -> Result<()> {
     let mut w = OsiTraceWriter::create(path)?;
     for i in 0..n {
-        w.write_message(&flat_field_view(0.1 * i as f64))?;
+        let mut v = flat_field_view(0.1 * i as f64);
+        if let Some(gt) = v.global_ground_truth.as_mut() {
+            gt.stationary_object.extend_from_slice(patches);
+        }
+        w.write_message(&v)?;
     }
     w.finish()?;
     Ok(())
+}
+
+/// Camera position of [`flat_field_view`] in global coordinates: the mounting (1.9, 0, 1.3) from
+/// the host's reference point, its box centre (0, 0, 0.75) (`bbcenter_to_rear` = 0).
+const FIELD_CAMERA: [f64; 3] = [1.9, 0.0, 2.05];
+/// Global x of the field board's face towards the camera (centre 5.9, 5 cm thick).
+const FIELD_FACE_X: f64 = 5.875;
+
+/// The grey chart of a design for the scene of [`flat_field_view`]: one 1 cm board per ROI of
+/// the ROI's reflectance (`lambertian_<pct>`), 2 cm in front of the field, centred on the ROI's
+/// pinhole ray (the campaign's 60° horizontal field of view) and 20 % larger than its footprint.
+pub fn chart_patches(spec: &CameraTruth) -> Vec<osi3::StationaryObject> {
+    if !spec.chart {
+        return Vec::new();
+    }
+    let f_px = 0.5 * spec.width as f64 / 30f64.to_radians().tan();
+    let (cx, cy) = (0.5 * spec.width as f64, 0.5 * spec.height as f64);
+    let x = FIELD_FACE_X - 0.02;
+    let d = x - FIELD_CAMERA[0];
+    rois(spec)
+        .iter()
+        .enumerate()
+        .map(|(k, r)| {
+            let (u, v) = (
+                r[0] as f64 + 0.5 * r[2] as f64,
+                r[1] as f64 + 0.5 * r[3] as f64,
+            );
+            let (w_m, h_m) = (1.2 * r[2] as f64 * d / f_px, 1.2 * r[3] as f64 * d / f_px);
+            let pct = spec.roi_reflectance_pct(k).round() as i64;
+            osi3::StationaryObject {
+                id: Some(id(200 + k as u64)),
+                base: Some(osi3::BaseStationary {
+                    dimension: Some(osi3::Dimension3d {
+                        length: Some(0.01),
+                        width: Some(w_m),
+                        height: Some(h_m),
+                    }),
+                    position: Some(v3(
+                        x,
+                        FIELD_CAMERA[1] - (u - cx) * d / f_px,
+                        FIELD_CAMERA[2] - (v - cy) * d / f_px,
+                    )),
+                    orientation: Some(orient(PI)),
+                    ..Default::default()
+                }),
+                model_reference: Some(format!(
+                    "osiris:board?width_m={w_m:.4}&height_m={h_m:.4}&material=lambertian_{pct}"
+                )),
+                ..Default::default()
+            }
+        })
+        .collect()
 }
 
 /// The `consistency.toml` text of a design (frames `frames/fNNN.png`).
@@ -746,7 +832,7 @@ pub fn write_camera(dir: &Path, spec: &CameraTruth) -> Result<CameraFiles> {
         s.black_level_dn = Some(BASE.black_dn);
         write_raw_png(&files.simulated.join(&name), &s)?;
     }
-    write_views(&files.sensor_view, fr.len())?;
+    write_views_of(&files.sensor_view, fr.len(), &chart_patches(spec))?;
     let run_id = format!(
         "camera-truth-{}-{}",
         match (spec.hidden, spec.hidden2) {
