@@ -609,6 +609,7 @@ mod tests {
             "-10*log10(1 + 10^((prx - p0)/10))",
             "p1*npdf((p0 - prx)/p1)/max(ncdf((prx - p0)/p1), 1e-12)",
             "20*log10(max(abs(2*sin(2*pi*p0/(0.0039*range))), 0.03)) - -min(range, p1)",
+            "2*fresnel(cosd(range), 1.52)/(1 + fresnel(cosd(range), p1))",
         ] {
             let e = Expr::parse(text, &names, &consts, &params).unwrap();
             let prog = Program::compile(&e);
@@ -621,6 +622,23 @@ mod tests {
             }
         }
         assert!(Expr::parse("range +", &vars, &consts, &params).is_err());
+    }
+
+    /// Normal incidence ((n − 1)/(n + 1))²; Brewster's angle tan θ_B = n makes r_p vanish, so
+    /// the unpolarised value is half of r_s = ((cos θ − n cos θt)/(cos θ + n cos θt))² there;
+    /// grazing incidence reflects everything.
+    #[test]
+    fn fresnel_at_normal_brewster_and_grazing_incidence() {
+        let n = 1.52f64;
+        assert!((fresnel(1.0, n) - ((n - 1.0) / (n + 1.0)).powi(2)).abs() < 1e-15);
+        let tb = n.atan();
+        let ct = (1.0 - tb.sin().powi(2) / (n * n)).sqrt();
+        let rs = ((tb.cos() - n * ct) / (tb.cos() + n * ct)).powi(2);
+        assert!((fresnel(tb.cos(), n) - 0.5 * rs).abs() < 1e-12);
+        assert!((fresnel(0.0, n) - 1.0).abs() < 1e-12);
+        let e = Expr::parse("fresnel(1, 1.52)", &[], &[], &[]).unwrap();
+        assert!((e.eval(&[], &[]) - 0.042_580_6).abs() < 1e-6);
+        assert!(Expr::parse("fresnel(1)", &[], &[], &[]).is_err());
     }
 
     #[test]
