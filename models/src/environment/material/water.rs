@@ -63,40 +63,13 @@ pub fn lekner_dorf_albedo(
 }
 
 /// Exponential integral `E₃(x) = ∫₁^∞ e^{−xt} t⁻³ dt` for `x ≥ 0` (`2E₃(x)` is the transmittance of
-/// a slab of optical depth `x` for Lambertian light). Via `E₁` (series below 1, continued fraction
-/// above; Abramowitz & Stegun 5.1.11, 5.1.22) and `E_{n+1} = (e^{−x} − x Eₙ)/n`.
+/// a slab of optical depth `x` for Lambertian light). Via `E₁` ([`crate::special::exp_integral_e1`])
+/// and `E_{n+1} = (e^{−x} − x Eₙ)/n` (Abramowitz & Stegun 5.1.14).
 pub fn exp_integral_e3(x: f64) -> f64 {
     if x <= 0.0 {
         return 0.5;
     }
-    let e1 = if x < 1.0 {
-        const EULER_GAMMA: f64 = 0.577_215_664_901_532_9;
-        let mut sum = 0.0;
-        let mut term = 1.0;
-        for k in 1..40 {
-            term *= -x / k as f64;
-            sum += term / k as f64;
-        }
-        -EULER_GAMMA - x.ln() - sum
-    } else {
-        // Lentz's continued fraction for e^x E1(x).
-        let mut b = x + 1.0;
-        let mut c = 1e300;
-        let mut d = 1.0 / b;
-        let mut h = d;
-        for i in 1..200 {
-            let a = -((i * i) as f64);
-            b += 2.0;
-            d = 1.0 / (a * d + b);
-            c = b + a / c;
-            let delta = c * d;
-            h *= delta;
-            if (delta - 1.0).abs() < 1e-15 {
-                break;
-            }
-        }
-        h * (-x).exp()
-    };
+    let e1 = crate::special::exp_integral_e1(x);
     let e2 = (-x).exp() - x * e1;
     0.5 * ((-x).exp() - x * e2)
 }
