@@ -366,9 +366,6 @@ fn cli_binary_runs_a_camera_campaign() {
 /// The scenario cannot cap the lens, so the design has no dark frames.
 #[test]
 fn closed_loop_with_the_osiris_camera_model() {
-    use osiris::consistency::camera::{CameraCampaign, simulate_frames};
-    use osiris::consistency::campaign::Campaign;
-    use osiris::consistency::simulate::model_config;
     let dir = tempfile::tempdir().unwrap();
     let design = CameraTruth {
         exposures_s: vec![0.0001, 0.00025, 0.0005, 0.00075, 0.001, 0.0015],
@@ -376,23 +373,14 @@ fn closed_loop_with_the_osiris_camera_model() {
         temperatures_c: vec![40.0],
         ..CameraTruth::default()
     };
-    let files = write_camera(&dir.path().join("campaign"), &design).unwrap();
-    let campaign = Campaign::load(&files.toml).unwrap();
-    let cc = CameraCampaign::load(&campaign, &files.toml).unwrap();
-    let views: Vec<osiris_proto::osi3::SensorView> =
-        osiris::consistency::pairing::read_trace(&files.sensor_view, "SensorView").unwrap();
-    // "Measured": the model with every effect on, another seed (another camera of the type).
-    let cfg = model_config(&campaign, None, &Default::default(), 9_001).unwrap();
-    let mut w = Vec::new();
-    let meas = simulate_frames(&cfg, &cc, &views, &mut w).unwrap_or_else(|e| panic!("{e:#}"));
+    let (files, cc, meas) = measured_by_the_model(dir.path(), &design, None);
     // The lit frames must carry light (a renderer that lost the scene fails here, not silently).
     let lit = cc
         .frames
         .iter()
         .zip(&meas)
         .filter(|(f, _)| !f.dark)
-        .filter_map(|(_, m)| m.as_ref())
-        .map(|m| {
+        .map(|(_, m)| {
             let bl = m.black_level_dn.unwrap_or(0.0);
             m.data.iter().map(|&v| f64::from(v) - bl).sum::<f64>() / m.data.len() as f64
         })
@@ -401,40 +389,17 @@ fn closed_loop_with_the_osiris_camera_model() {
         lit >= 50.0,
         "the simulated lit frames carry no light ({lit:.1} DN above black)"
     );
-    for (f, m) in cc.frames.iter().zip(&meas) {
-        let m = m.as_ref().unwrap();
-        write_raw_png(
-            &f.file,
-            &RawFrame {
-                black_level_dn: None,
-                ..m.clone()
-            },
-        )
-        .unwrap();
-    }
-    let run_with = |enable: Vec<String>, disable: Vec<String>, out: &str| {
-        cli::run_with(
-            &ConsistencyArgs {
-                meta: files.toml.clone(),
-                out: dir.path().join(out),
-                simulated: None,
-                model: None,
-                enable,
-                disable,
-                history: None,
-            },
-            None,
-        )
-        .unwrap()
+    let run_with = |enable: &[&str], disable: &[&str], out: &str| {
+        resimulate(&files, dir.path().join(out), None, enable, disable)
     };
-    let before = run_with(vec![], vec!["camera.prnu".into()], "before");
+    let before = run_with(&[], &["camera.prnu"], "before");
     eprintln!("before\n{}", describe(&before));
     assert!(
         before.accepted().iter().any(|a| a == "camera.prnu"),
         "{}",
         describe(&before)
     );
-    let after = run_with(vec!["camera.prnu".into()], vec![], "after");
+    let after = run_with(&["camera.prnu"], &[], "after");
     eprintln!("after\n{}", describe(&after));
     let q = "roi_variance_per_roi_pct";
     let (b, a) = (before.holdout_error[q], after.holdout_error[q]);
@@ -637,9 +602,6 @@ fn camera_catalogue_parses_with_known_switches_and_exact_signatures() {
 /// longer accepted. The chart itself is checked first: the 90 % patch gives 4.5× the 20 % one.
 #[test]
 fn closed_loop_dashboard_reflection_with_the_osiris_camera_model() {
-    use osiris::consistency::camera::{CameraCampaign, simulate_frames};
-    use osiris::consistency::campaign::Campaign;
-    use osiris::consistency::simulate::model_config;
     let dir = tempfile::tempdir().unwrap();
     let design = CameraTruth {
         exposures_s: vec![0.0001, 0.00025, 0.0005, 0.00075, 0.001],
@@ -647,7 +609,6 @@ fn closed_loop_dashboard_reflection_with_the_osiris_camera_model() {
         temperatures_c: vec![40.0],
         ..CameraTruth::default().with_chart()
     };
-    let files = write_camera(&dir.path().join("campaign"), &design).unwrap();
     let model = dir.path().join("model.json");
     std::fs::write(
         &model,
@@ -657,15 +618,9 @@ fn closed_loop_dashboard_reflection_with_the_osiris_camera_model() {
             "camera": {"windshield": {"dashboard_reflectance": 0.5}}}"#,
     )
     .unwrap();
-    let campaign = Campaign::load(&files.toml).unwrap();
-    let cc = CameraCampaign::load(&campaign, &files.toml).unwrap();
-    let views: Vec<osiris_proto::osi3::SensorView> =
-        osiris::consistency::pairing::read_trace(&files.sensor_view, "SensorView").unwrap();
-    let cfg = model_config(&campaign, Some(&model), &Default::default(), 9_001).unwrap();
-    let mut w = Vec::new();
-    let meas = simulate_frames(&cfg, &cc, &views, &mut w).unwrap_or_else(|e| panic!("{e:#}"));
+    let (files, cc, meas) = measured_by_the_model(dir.path(), &design, Some(&model));
     // The chart: mean above black of the 90 % and the 20 % patch in the longest exposure.
-    let last = meas.last().unwrap().as_ref().unwrap();
+    let last = meas.last().unwrap();
     let roi_mean = |k: usize| {
         let r = cc.rois[k].rect_px;
         let bl = last.black_level_dn.unwrap_or(0.0);
@@ -689,41 +644,18 @@ fn closed_loop_dashboard_reflection_with_the_osiris_camera_model() {
         roi_mean(k20)
     );
     assert!(ratio > 2.5 && ratio < 4.6, "chart ratio {ratio}");
-    for (f, m) in cc.frames.iter().zip(&meas) {
-        let m = m.as_ref().unwrap();
-        write_raw_png(
-            &f.file,
-            &RawFrame {
-                black_level_dn: None,
-                ..m.clone()
-            },
-        )
-        .unwrap();
-    }
-    let run_with = |enable: Vec<String>, disable: Vec<String>, out: &str| {
-        cli::run_with(
-            &ConsistencyArgs {
-                meta: files.toml.clone(),
-                out: dir.path().join(out),
-                simulated: None,
-                model: Some(model.clone()),
-                enable,
-                disable,
-                history: None,
-            },
-            None,
-        )
-        .unwrap()
+    let run_with = |enable: &[&str], disable: &[&str], out: &str| {
+        resimulate(&files, dir.path().join(out), Some(&model), enable, disable)
     };
     let veil = "camera.dashboard_reflection";
-    let before = run_with(vec![], vec![veil.into()], "before");
+    let before = run_with(&[], &[veil], "before");
     eprintln!("before\n{}", describe(&before));
     assert!(
         before.accepted().iter().any(|a| a == veil),
         "{}",
         describe(&before)
     );
-    let after = run_with(vec![veil.into()], vec![], "after");
+    let after = run_with(&[veil], &[], "after");
     eprintln!("after\n{}", describe(&after));
     let q = "roi_mean_pct";
     let (b, a) = (before.holdout_error[q], after.holdout_error[q]);
@@ -734,4 +666,66 @@ fn closed_loop_dashboard_reflection_with_the_osiris_camera_model() {
         "{}",
         describe(&after)
     );
+}
+
+/// Writes the campaign of `design` into `dir/campaign` with its "measured" frames replaced by
+/// osiris's physical camera (the model configuration `model`, else the campaign's default) at
+/// seed 9001 with every effect on: another camera of the type. Returns the files, the loaded
+/// campaign and those frames.
+fn measured_by_the_model(
+    dir: &Path,
+    design: &CameraTruth,
+    model: Option<&Path>,
+) -> (CameraFiles, CameraCampaign, Vec<RawFrame>) {
+    use osiris::consistency::camera::simulate_frames;
+    use osiris::consistency::campaign::Campaign;
+    use osiris::consistency::simulate::model_config;
+    let files = write_camera(&dir.join("campaign"), design).unwrap();
+    let campaign = Campaign::load(&files.toml).unwrap();
+    let cc = CameraCampaign::load(&campaign, &files.toml).unwrap();
+    let views: Vec<osiris_proto::osi3::SensorView> =
+        osiris::consistency::pairing::read_trace(&files.sensor_view, "SensorView").unwrap();
+    let cfg = model_config(&campaign, model, &Default::default(), 9_001).unwrap();
+    let mut w = Vec::new();
+    let meas: Vec<RawFrame> = simulate_frames(&cfg, &cc, &views, &mut w)
+        .unwrap_or_else(|e| panic!("{e:#}"))
+        .into_iter()
+        .map(|m| m.expect("every frame simulated"))
+        .collect();
+    for (f, m) in cc.frames.iter().zip(&meas) {
+        write_raw_png(
+            &f.file,
+            &RawFrame {
+                black_level_dn: None,
+                ..m.clone()
+            },
+        )
+        .unwrap();
+    }
+    (files, cc, meas)
+}
+
+/// The workflow on `files`' campaign, re-simulating with osiris's camera (`model`, else the
+/// campaign's default) and the given switches, into `out`.
+fn resimulate(
+    files: &CameraFiles,
+    out: std::path::PathBuf,
+    model: Option<&Path>,
+    enable: &[&str],
+    disable: &[&str],
+) -> Summary {
+    let names = |l: &[&str]| l.iter().map(|s| s.to_string()).collect();
+    cli::run_with(
+        &ConsistencyArgs {
+            meta: files.toml.clone(),
+            out,
+            simulated: None,
+            model: model.map(Path::to_path_buf),
+            enable: names(enable),
+            disable: names(disable),
+            history: None,
+        },
+        None,
+    )
+    .unwrap()
 }
