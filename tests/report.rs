@@ -429,20 +429,24 @@ fn report_html_shows_a_range_doppler_map_and_detections() {
     assert!(html.contains("document.body.dataset.rendered"));
 }
 
-/// A reported bulb state is an error when lit/dark differs from the ground truth's mode
-/// (CONSTANT/COUNTING lit, OFF dark); FLASHING ground truth is not judged.
-#[test]
-fn traffic_light_state_errors_against_the_ground_truth_modes() {
-    use osi3::traffic_light::classification::Mode;
-    let bulb = |id: u64, mode: Mode| osi3::TrafficLight {
+/// A ground-truth bulb `id` in `mode`.
+fn bulb(id: u64, mode: osi3::traffic_light::classification::Mode) -> osi3::TrafficLight {
+    osi3::TrafficLight {
         id: Some(osiris_proto::id(id)),
         classification: Some(osi3::traffic_light::Classification {
             mode: Some(mode as i32),
             ..Default::default()
         }),
         ..Default::default()
-    };
-    let detected = |id: u64, mode: Mode| osi3::DetectedTrafficLight {
+    }
+}
+
+/// A detected bulb naming ground-truth bulb `id`, reported in `mode`.
+fn detected(
+    id: u64,
+    mode: osi3::traffic_light::classification::Mode,
+) -> osi3::DetectedTrafficLight {
+    osi3::DetectedTrafficLight {
         header: Some(osi3::DetectedItemHeader {
             ground_truth_id: vec![osiris_proto::id(id)],
             ..Default::default()
@@ -455,7 +459,14 @@ fn traffic_light_state_errors_against_the_ground_truth_modes() {
             }),
         }],
         ..Default::default()
-    };
+    }
+}
+
+/// A reported bulb state is an error when lit/dark differs from the ground truth's mode
+/// (CONSTANT/COUNTING lit, OFF dark); FLASHING ground truth is not judged.
+#[test]
+fn traffic_light_state_errors_against_the_ground_truth_modes() {
+    use osi3::traffic_light::classification::Mode;
     let gt = osi3::GroundTruth {
         traffic_light: vec![
             bulb(1, Mode::Constant),
@@ -493,34 +504,13 @@ fn report_html_shows_the_traffic_control_outputs() {
     use osi3::traffic_light::classification::Mode;
     let mut view = sensor_view();
     let gt = view.global_ground_truth.as_mut().unwrap();
-    gt.traffic_light = vec![osi3::TrafficLight {
-        id: Some(osiris_proto::id(77)),
-        classification: Some(osi3::traffic_light::Classification {
-            mode: Some(Mode::Constant as i32),
-            ..Default::default()
-        }),
-        ..Default::default()
-    }];
-    let bulb = |mode: Mode| osi3::DetectedTrafficLight {
-        header: Some(osi3::DetectedItemHeader {
-            ground_truth_id: vec![osiris_proto::id(77)],
-            ..Default::default()
-        }),
-        candidate: vec![osi3::detected_traffic_light::CandidateTrafficLight {
-            probability: Some(1.0),
-            classification: Some(osi3::traffic_light::Classification {
-                mode: Some(mode as i32),
-                ..Default::default()
-            }),
-        }],
-        ..Default::default()
-    };
+    gt.traffic_light = vec![bulb(77, Mode::Constant)];
     let mut report = ReportBuilder::new("traffic control");
     // Frame 0: nothing; frame 1: the bulb read lit, a sign, two boundaries; frame 2: read dark.
     let frames = [
         (vec![], 0, 0),
-        (vec![bulb(Mode::Constant)], 1, 2),
-        (vec![bulb(Mode::Off)], 0, 2),
+        (vec![detected(77, Mode::Constant)], 1, 2),
+        (vec![detected(77, Mode::Off)], 0, 2),
     ];
     for (k, (lights, signs, boundaries)) in frames.into_iter().enumerate() {
         let mut sd = sensor_data();
