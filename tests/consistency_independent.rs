@@ -99,6 +99,32 @@ fn write_model(w: &Written, name: &str, json: String) -> std::path::PathBuf {
     path
 }
 
+/// The physical camera of the independent camera campaigns as model configuration `name`: 60°,
+/// `width_px` × `height_px`, detections only (no images), rolling shutter and motion blur off (the
+/// generator's camera has a global shutter); `camera_extra` goes into the `camera` object, `extra`
+/// into the configuration (each a `, "key": value` list or empty).
+fn physical_camera_model(
+    w: &Written,
+    name: &str,
+    (width_px, height_px): (u32, u32),
+    camera_extra: &str,
+    extra: &str,
+) -> std::path::PathBuf {
+    let (mx, mz) = independent_truth::camera_mounting();
+    write_model(
+        w,
+        name,
+        format!(
+            r#"{{"kind": "camera", "mode": "physical", "range_m": 120, "update_cycle_s": 0.1,
+            "fov_horizontal_rad": 1.0472, "fov_vertical_rad": 0.8,
+            "mounting": {{"position_m": [{mx}, 0.0, {mz}]}},
+            "effects": {{"camera.rolling_shutter": false, "camera.motion_blur": false}},
+            "camera": {{"width_px": {width_px}, "height_px": {height_px}{camera_extra},
+                        "emit": {{"raw_exposures": false, "raw_hdr_linear": false, "raw_companded": false, "isp": false}}}}{extra}}}"#
+        ),
+    )
+}
+
 /// [`args_for`] re-simulating with the model configuration `model` and the effect switches.
 fn model_args(
     w: &Written,
@@ -971,20 +997,8 @@ fn closed_loop_camera_yaw_misalignment_with_the_physical_camera_model() {
     )
     .unwrap();
     let hidden = w.hidden_value.expect("the hidden yaw, deg");
-    let (mx, mz) = independent_truth::camera_mounting();
     let model = |name: &str, calibration: &str| {
-        write_model(
-            &w,
-            name,
-            format!(
-                r#"{{"kind": "camera", "mode": "physical", "range_m": 120, "update_cycle_s": 0.1,
-                "fov_horizontal_rad": 1.0472, "fov_vertical_rad": 0.8,
-                "mounting": {{"position_m": [{mx}, 0.0, {mz}]}},
-                "effects": {{"camera.rolling_shutter": false, "camera.motion_blur": false}},
-                "camera": {{"width_px": 320, "height_px": 240,
-                            "emit": {{"raw_exposures": false, "raw_hdr_linear": false, "raw_companded": false, "isp": false}}}}{calibration}}}"#
-            ),
-        )
+        physical_camera_model(&w, name, (320, 240), "", calibration)
     };
     let args = |out: &str, model: std::path::PathBuf, enable: &[&str], disable: &[&str]| {
         model_args(&w, root.join(out), model, enable, disable)
@@ -1050,32 +1064,13 @@ fn closed_loop_camera_windshield_with_the_physical_camera_model() {
     )
     .unwrap();
     let hidden = w.hidden_value.expect("the hidden wedge, mrad");
-    let (mx, mz) = independent_truth::camera_mounting();
-    let model = |name: &str, windshield: &str| {
-        write_model(
-            &w,
-            name,
-            format!(
-                r#"{{"kind": "camera", "mode": "physical", "range_m": 120, "update_cycle_s": 0.1,
-                "fov_horizontal_rad": 1.0472, "fov_vertical_rad": 0.8,
-                "mounting": {{"position_m": [{mx}, 0.0, {mz}]}},
-                "effects": {{"camera.rolling_shutter": false, "camera.motion_blur": false}},
-                "camera": {{"width_px": 640, "height_px": 480{windshield},
-                            "emit": {{"raw_exposures": false, "raw_hdr_linear": false, "raw_companded": false, "isp": false}}}}}}"#
-            ),
-        )
-    };
+    let model =
+        |name: &str, windshield: &str| physical_camera_model(&w, name, (640, 480), windshield, "");
     let args =
         |out: &str, model: std::path::PathBuf| model_args(&w, root.join(out), model, &[], &[]);
     let t0 = std::time::Instant::now();
     let before = run_with(&args("without", model("nominal.json", "")), None).unwrap();
-    let el = |s: &Summary| {
-        s.attribution
-            .iter()
-            .find(|a| a.quantity == "elevation_deg")
-            .expect("elevation rows")
-            .clone()
-    };
+    let el = |s| attribution(s, "elevation_deg");
     let fitted = el(&before);
     println!(
         "without: {} accepted on elevation {:?}, elevation RMS {:.3}°, pairing {:?} ({:.1} s)",
@@ -1092,13 +1087,7 @@ fn closed_loop_camera_windshield_with_the_physical_camera_model() {
         "{:?}",
         fitted.accepted
     );
-    let wedge = fitted
-        .effects
-        .iter()
-        .find(|e| e.id == "camera.windshield_refraction")
-        .unwrap()
-        .params[0]
-        .value;
+    let wedge = fit(fitted, "camera.windshield_refraction").params[0].value;
     println!("fitted wedge {wedge:.3} mrad (hidden {hidden:.3} mrad)");
     assert!(
         (wedge - hidden).abs() <= 0.3 * hidden,
