@@ -8,7 +8,7 @@
 //! patterns, so every test is quick in the dev profile.
 
 mod common;
-use common::{dim, lidar_step as run, rpy, v3};
+use common::{dim, lidar_step as run, quiet_lidar as quiet, rpy, v3};
 use std::f64::consts::PI;
 
 use glam::DVec3;
@@ -85,19 +85,6 @@ fn view(
         }),
         ..Default::default()
     }
-}
-
-/// Effects that make the received power deterministic (no noise, no saturation, no sun).
-fn quiet() -> EffectSwitches {
-    [
-        ("lidar.detector_noise", false),
-        ("lidar.detector_saturation", false),
-        ("lidar.solar_background", false),
-        ("lidar.dropped_rays", false),
-    ]
-    .into_iter()
-    .map(|(k, v)| (k.to_owned(), v))
-    .collect()
 }
 
 fn config(lidar: LidarConfig, effects: EffectSwitches) -> SensorConfig {

@@ -874,7 +874,6 @@ fn scene_builds_signs_lights_and_rebuilds_on_change() {
 /// are brighter by the BRDF ratio (retroreflection R₀ ≈ 300 sr⁻¹ against ρ/π = 0.16 sr⁻¹).
 #[test]
 fn lidar_sees_the_sign_plate_bright() {
-    use osiris_models::effects::EffectSwitches;
     use osiris_models::lidar::LidarConfig;
     use osiris_models::lidar::detection::{DetectorConfig, IntensityMode};
     use osiris_models::lidar::scan::{FlashPattern, ScanPattern};
@@ -913,15 +912,7 @@ fn lidar_sees_the_sign_plate_bright() {
         .unwrap()
         .stationary_object
         .push(board);
-    let effects: EffectSwitches = [
-        ("lidar.detector_noise", false),
-        ("lidar.detector_saturation", false),
-        ("lidar.solar_background", false),
-        ("lidar.dropped_rays", false),
-    ]
-    .into_iter()
-    .map(|(k, v)| (k.to_owned(), v))
-    .collect();
+    let effects = common::quiet_lidar();
     let lidar = LidarConfig {
         scan: Some(ScanPattern::Flash(FlashPattern {
             rows: 16,

@@ -206,3 +206,17 @@ pub fn view_of(objects: Vec<osi3::MovingObject>) -> osi3::SensorView {
         ..Default::default()
     }
 }
+
+/// LiDAR effects off that make the received power deterministic (no noise, no saturation, no
+/// sun, no dropped rays).
+pub fn quiet_lidar() -> osiris_models::effects::EffectSwitches {
+    [
+        ("lidar.detector_noise", false),
+        ("lidar.detector_saturation", false),
+        ("lidar.solar_background", false),
+        ("lidar.dropped_rays", false),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_owned(), v))
+    .collect()
+}
