@@ -522,7 +522,8 @@ fn apply(model: Side, h: CameraHidden, m: f64) -> Side {
     s
 }
 
-/// Renders one frame of one side. `maps` = (PRNU map, DSNU map) of the side (unit normal).
+/// Renders one frame of one side. `maps` = (PRNU map, DSNU map) of the side (unit normal);
+/// `(refl_pct, glass)` = per pixel the scene reflectance (%) and the windshield reflectance.
 #[allow(clippy::too_many_arguments)]
 fn render(
     spec: &CameraTruth,
@@ -530,7 +531,7 @@ fn render(
     f: &FrameSpec,
     frame_i: usize,
     maps: &(Vec<f64>, Vec<f64>),
-    refl_pct: &[f64],
+    (refl_pct, glass): (&[f64], &[f64]),
     rng: &mut SplitMix,
     black_dn: f64,
     gain: f64,
@@ -552,11 +553,7 @@ fn render(
                     * (1.0 + s.prnu * maps.0[i]);
                 lens * (1.0 + s.banding * banding(spec, y as f64 + 0.5, frame_i)) * refl_pct[i]
                     / FIELD_PCT
-                    + lens
-                        * s.veil
-                        * glass_reflectance(spec, x as f64 + 0.5, y as f64 + 0.5)
-                        * 100.0
-                        / FIELD_PCT
+                    + lens * s.veil * glass[i] * 100.0 / FIELD_PCT
             };
             let mean_e = light + d;
             let e = if s.shot > 0.0 {
@@ -802,6 +799,13 @@ pub fn write_camera(dir: &Path, spec: &CameraTruth) -> Result<CameraFiles> {
     let maps_m = map(&mut rng_m);
     let maps_s = map(&mut rng_s);
     let refl = spec.reflectance_map();
+    // The windshield's reflectance per pixel (the veil's shape), the same in every frame.
+    let glass: Vec<f64> = (0..n)
+        .map(|i| {
+            let (x, y) = (i % spec.width, i / spec.width);
+            glass_reflectance(spec, x as f64 + 0.5, y as f64 + 0.5)
+        })
+        .collect();
     for (i, f) in fr.iter().enumerate() {
         let name = format!("f{i:03}.png");
         let m = render(
@@ -810,7 +814,7 @@ pub fn write_camera(dir: &Path, spec: &CameraTruth) -> Result<CameraFiles> {
             f,
             i,
             &maps_m,
-            &refl,
+            (&refl, &glass),
             &mut rng_m,
             BASE.black_dn + spec.black_offset_dn,
             1.0 + spec.gain_error,
@@ -824,7 +828,7 @@ pub fn write_camera(dir: &Path, spec: &CameraTruth) -> Result<CameraFiles> {
             f,
             i,
             &maps_s,
-            &refl,
+            (&refl, &glass),
             &mut rng_s,
             BASE.black_dn,
             1.0,
