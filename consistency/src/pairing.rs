@@ -838,9 +838,8 @@ fn pick_nearest(
     Some(i)
 }
 
-/// A camera detection: the direction of its angular box centre (azimuth, elevation; deg) and its
-/// object id.
-type CameraDirection = (Option<CameraBox>, Option<osi3::Identifier>);
+/// A camera detection: its angular box (`None` without finite points) and its object id.
+type CameraDetectionBox = (Option<CameraBox>, Option<osi3::Identifier>);
 
 /// The angular box of a camera detection, spanned by its points (OSI `CameraPoint.point`,
 /// spherical in the sensor frame; a box detection has two, the first and third corner).
@@ -904,7 +903,7 @@ fn camera_frame(
     out: &mut Paired,
 ) {
     // (azimuth, elevation) per detection, and its object id.
-    let dets = |d: &osi3::SensorData| -> Vec<CameraDirection> {
+    let dets = |d: &osi3::SensorData| -> Vec<CameraDetectionBox> {
         d.feature_data
             .as_ref()
             .into_iter()
@@ -924,7 +923,7 @@ fn camera_frame(
     let (m_ids, s_ids) = (use_ids && by_id(&m_truth), use_ids && by_id(&s_truth));
     let mut m_used = vec![false; m.len()];
     let mut s_used = vec![false; s.len()];
-    let pick = |list: &[CameraDirection],
+    let pick = |list: &[CameraDetectionBox],
                 truth: &[Option<u64>],
                 used: &mut [bool],
                 ids: bool,

@@ -257,9 +257,7 @@ impl CameraChain {
             windshield,
         })
     }
-}
 
-impl CameraChain {
     /// Where the camera believes a lens ray looks: `calibration · ray` (a camera calibrated
     /// through its windshield, `WindshieldPlan::calibration`; the identity otherwise).
     fn calibration(&self) -> DMat3 {
