@@ -178,8 +178,8 @@ impl WindshieldConfig {
         (self.normal() - self.wedge_mrad * 1e-3 * up).normalize()
     }
 
-    /// A ray from the origin along the unit `d` through the glass: its exit point P₁, its exit
-    /// direction d' (unit; = d for parallel faces) and its virtual origin `P₁ − (P₁·d')d'` (the
+    /// A ray from the origin along the unit `d` through the glass: its exit direction d' (unit;
+    /// = d for parallel faces) and its virtual origin `P₁ − (P₁·d')d'` (P₁ the exit point; the
     /// displacement, ⟂ d'). `None` when the ray does not meet the glass ahead or is totally
     /// reflected at the outer face.
     pub fn refract(&self, d: DVec3) -> Option<Refracted> {
@@ -203,7 +203,6 @@ impl WindshieldConfig {
         let p1 = p0 + dt * ((q2 - p0).dot(n2) / c2);
         let out = snell(dt, n2, ng)?;
         Some(Refracted {
-            exit: p1,
             direction: out,
             origin: p1 - out * p1.dot(out),
         })
@@ -213,11 +212,9 @@ impl WindshieldConfig {
 /// A pixel ray after the windshield ([`WindshieldConfig::refract`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Refracted {
-    /// Where the ray leaves the outer face, sensor frame, m.
-    pub exit: DVec3,
     /// The exit direction, unit.
     pub direction: DVec3,
-    /// The virtual origin: the exit point less its component along `direction`, m.
+    /// The virtual origin: the exit point less its component along `direction`, sensor frame, m.
     pub origin: DVec3,
 }
 
